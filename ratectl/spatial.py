@@ -1,0 +1,340 @@
+"""Rotations and rigid transforms: SO(3) and SE(3) helpers.
+
+Conventions (see DESIGN.md §2):
+
+* SI units; angles in radians.
+* Twists are ``[v; ω]`` (linear first), rotation vectors are ``θ·axis``.
+* Quaternions are scalar-first ``[w, x, y, z]`` (MuJoCo's order), unit norm.
+* Roll-pitch-yaw is the URDF convention: ``R = Rz(yaw) · Ry(pitch) · Rx(roll)``.
+* Every function accepts leading batch dimensions: a rotation is ``(..., 3, 3)``,
+  a transform ``(..., 4, 4)``, a vector ``(..., 3)``.
+
+Accuracy: :func:`so3_log` and :func:`so3_exp` use series near angle 0 and the
+symmetric part of ``R`` near angle π, so they stay accurate to machine precision
+over the whole range; no ``arccos`` of an unclipped value is ever taken.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = [
+    "skew",
+    "vee",
+    "rotx",
+    "roty",
+    "rotz",
+    "transform",
+    "translation",
+    "inverse_transform",
+    "so3_exp",
+    "so3_log",
+    "se3_exp",
+    "se3_log",
+    "pose_error",
+    "rotation_angle",
+    "quat_from_rotation",
+    "rotation_from_quat",
+    "rpy_from_rotation",
+    "rotation_from_rpy",
+    "interpolate",
+    "adjoint",
+]
+
+_SMALL = 1e-6
+
+
+def _as_array(x, name: str, tail: tuple[int, ...]) -> np.ndarray:
+    a = np.asarray(x, dtype=float)
+    if a.shape[a.ndim - len(tail):] != tail or a.ndim < len(tail):
+        raise InputError(
+            f"{name} must have shape (..., {', '.join(map(str, tail))}), got {a.shape}",
+            argument=name, value=a)
+    return a
+
+
+def skew(v) -> np.ndarray:
+    """Skew-symmetric matrix ``[v]×`` with ``[v]× u = v × u``.
+
+    Args:
+        v: vector(s), shape ``(..., 3)``.
+
+    Returns:
+        ``(..., 3, 3)`` array.
+    """
+    v = _as_array(v, "v", (3,))
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1] = -v[..., 2]
+    out[..., 0, 2] = v[..., 1]
+    out[..., 1, 0] = v[..., 2]
+    out[..., 1, 2] = -v[..., 0]
+    out[..., 2, 0] = -v[..., 1]
+    out[..., 2, 1] = v[..., 0]
+    return out
+
+
+def vee(S) -> np.ndarray:
+    """Inverse of :func:`skew` for the skew part of ``S``: returns ``(..., 3)``."""
+    S = _as_array(S, "S", (3, 3))
+    return 0.5 * np.stack(
+        [S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]],
+        axis=-1,
+    )
+
+
+def _axis_rotation(angle, i: int, j: int) -> np.ndarray:
+    a = np.asarray(angle, dtype=float)
+    c, s = np.cos(a), np.sin(a)
+    out = np.zeros(a.shape + (3, 3))
+    k = 3 - i - j
+    out[..., k, k] = 1.0
+    out[..., i, i] = c
+    out[..., j, j] = c
+    out[..., i, j] = -s
+    out[..., j, i] = s
+    return out
+
+
+def rotx(angle) -> np.ndarray:
+    """Rotation about x by ``angle`` [rad]: ``(..., 3, 3)``."""
+    return _axis_rotation(angle, 1, 2)
+
+
+def roty(angle) -> np.ndarray:
+    """Rotation about y by ``angle`` [rad]: ``(..., 3, 3)``."""
+    return _axis_rotation(angle, 2, 0)
+
+
+def rotz(angle) -> np.ndarray:
+    """Rotation about z by ``angle`` [rad]: ``(..., 3, 3)``."""
+    return _axis_rotation(angle, 0, 1)
+
+
+def transform(R=None, p=None) -> np.ndarray:
+    """Homogeneous transform from a rotation ``R`` (..., 3, 3) and translation ``p`` (..., 3) [m].
+
+    Either may be omitted (identity rotation, zero translation).
+    """
+    R = np.eye(3) if R is None else _as_array(R, "R", (3, 3))
+    p = np.zeros(3) if p is None else _as_array(p, "p", (3,))
+    batch = np.broadcast_shapes(R.shape[:-2], p.shape[:-1])
+    T = np.zeros(batch + (4, 4))
+    T[..., :3, :3] = R
+    T[..., :3, 3] = p
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def translation(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:
+    """Pure translation transform by ``(x, y, z)`` [m]."""
+    return transform(None, np.array([x, y, z], dtype=float))
+
+
+def inverse_transform(T) -> np.ndarray:
+    """Inverse of a rigid transform: ``[Rᵀ, −Rᵀp; 0, 1]``."""
+    T = _as_array(T, "T", (4, 4))
+    R = T[..., :3, :3]
+    p = T[..., :3, 3]
+    Rt = np.swapaxes(R, -1, -2)
+    return transform(Rt, -np.einsum("...ij,...j->...i", Rt, p))
+
+
+def so3_exp(w) -> np.ndarray:
+    """Rotation matrix of a rotation vector ``w = θ·axis`` (Rodrigues' formula).
+
+    ``R = I + (sin θ/θ)[w]× + ((1 − cos θ)/θ²)[w]×²``, with Taylor series for θ < 1e-6.
+    """
+    w = _as_array(w, "w", (3,))
+    th2 = np.einsum("...i,...i->...", w, w)
+    th = np.sqrt(th2)
+    small = th < _SMALL
+    th_safe = np.where(small, 1.0, th)
+    A = np.where(small, 1.0 - th2 / 6.0, np.sin(th_safe) / th_safe)
+    B = np.where(small, 0.5 - th2 / 24.0, (1.0 - np.cos(th_safe)) / th_safe**2)
+    K = skew(w)
+    K2 = K @ K
+    return np.eye(3) + A[..., None, None] * K + B[..., None, None] * K2
+
+
+def rotation_angle(R) -> np.ndarray:
+    """Rotation angle θ ∈ [0, π] of ``R``, computed as atan2(‖vee(R)‖, (tr R − 1)/2)."""
+    R = _as_array(R, "R", (3, 3))
+    s = np.linalg.norm(vee(R), axis=-1)
+    c = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
+    return np.arctan2(s, c)
+
+
+def so3_log(R) -> np.ndarray:
+    """Rotation vector ``w = θ·axis`` of a rotation matrix (inverse of :func:`so3_exp`).
+
+    θ = atan2(‖vee(R)‖, (tr R − 1)/2) is accurate everywhere. Away from π the axis
+    comes from the skew part, ``w = θ/sin θ · vee(R)``; near π (where that part
+    vanishes) it comes from the symmetric part, ``(R + Rᵀ)/2 − cos θ I = (1 − cos θ) a aᵀ``,
+    with the sign fixed by the skew part.
+    """
+    R = _as_array(R, "R", (3, 3))
+    v = vee(R)
+    s = np.linalg.norm(v, axis=-1)
+    c = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
+    th = np.arctan2(s, c)
+    small = th < _SMALL
+    # th / sin(th): series 1 + th²/6 near 0.
+    s_safe = np.where(s == 0.0, 1.0, s)
+    factor = np.where(small, 1.0 + th**2 / 6.0, th / s_safe)
+    w = factor[..., None] * v
+    near_pi = c < -0.9  # θ > ~154°: use the symmetric part
+    if np.any(near_pi):
+        S = 0.5 * (R + np.swapaxes(R, -1, -2)) - c[..., None, None] * np.eye(3)
+        diag = np.diagonal(S, axis1=-2, axis2=-1)
+        k = np.argmax(diag, axis=-1)
+        col = np.take_along_axis(S, k[..., None, None].repeat(3, axis=-1), axis=-2)[..., 0, :]
+        norm = np.linalg.norm(col, axis=-1, keepdims=True)
+        axis = col / np.where(norm == 0.0, 1.0, norm)
+        sign = np.where(np.einsum("...i,...i->...", axis, v) < 0.0, -1.0, 1.0)
+        w_pi = (sign * th)[..., None] * axis
+        w = np.where(near_pi[..., None], w_pi, w)
+    return w
+
+
+def _left_jacobian_terms(th2):
+    th = np.sqrt(th2)
+    small = th < 1e-4
+    ts = np.where(small, 1.0, th)
+    B = np.where(small, 0.5 - th2 / 24.0, (1.0 - np.cos(ts)) / ts**2)
+    C = np.where(small, 1.0 / 6.0 - th2 / 120.0, (ts - np.sin(ts)) / ts**3)
+    return B, C
+
+
+def se3_exp(xi) -> np.ndarray:
+    """Transform ``exp([ξ])`` of a twist ``ξ = [v; ω]`` (unit time), shape ``(..., 6)``.
+
+    ``T = [exp(ω), V(ω) v; 0, 1]`` with ``V = I + B[ω]× + C[ω]×²``,
+    ``B = (1 − cos θ)/θ²``, ``C = (θ − sin θ)/θ³``.
+    """
+    xi = _as_array(xi, "xi", (6,))
+    v, w = xi[..., :3], xi[..., 3:]
+    R = so3_exp(w)
+    th2 = np.einsum("...i,...i->...", w, w)
+    B, C = _left_jacobian_terms(th2)
+    K = skew(w)
+    V = np.eye(3) + B[..., None, None] * K + C[..., None, None] * (K @ K)
+    return transform(R, np.einsum("...ij,...j->...i", V, v))
+
+
+def se3_log(T) -> np.ndarray:
+    """Twist ``ξ = [v; ω]`` with ``se3_exp(ξ) = T`` (inverse of :func:`se3_exp`)."""
+    T = _as_array(T, "T", (4, 4))
+    w = so3_log(T[..., :3, :3])
+    th2 = np.einsum("...i,...i->...", w, w)
+    th = np.sqrt(th2)
+    small = th < 1e-4
+    ts = np.where(small, 1.0, th)
+    # V⁻¹ = I − ½[ω]× + D[ω]×², D = (1 − θ sin θ / (2(1 − cos θ))) / θ²
+    half = ts / 2.0
+    D = np.where(small, 1.0 / 12.0 + th2 / 720.0,
+                 (1.0 - half / np.tan(np.where(small, 1.0, half))) / ts**2)
+    K = skew(w)
+    Vinv = np.eye(3) - 0.5 * K + D[..., None, None] * (K @ K)
+    v = np.einsum("...ij,...j->...i", Vinv, T[..., :3, 3])
+    return np.concatenate([v, w], axis=-1)
+
+
+def pose_error(T_desired, T_actual) -> np.ndarray:
+    """Servoing pose error ``e = [p_d − p ; log(R_d Rᵀ)]`` in base-frame axes, ``(..., 6)``.
+
+    The rotational part is the rotation vector that takes the actual orientation to
+    the desired one, expressed in the base frame [rad]; the linear part [m].
+    """
+    Td = _as_array(T_desired, "T_desired", (4, 4))
+    Ta = _as_array(T_actual, "T_actual", (4, 4))
+    dp = Td[..., :3, 3] - Ta[..., :3, 3]
+    Rerr = Td[..., :3, :3] @ np.swapaxes(Ta[..., :3, :3], -1, -2)
+    return np.concatenate(np.broadcast_arrays(dp, so3_log(Rerr)), axis=-1)
+
+
+def quat_from_rotation(R) -> np.ndarray:
+    """Unit quaternion ``[w, x, y, z]`` (w ≥ 0) of a rotation matrix, robust for all angles."""
+    R = _as_array(R, "R", (3, 3))
+    w = so3_log(R)
+    th = np.linalg.norm(w, axis=-1)
+    half = th / 2.0
+    small = th < _SMALL
+    k = np.where(small, 0.5 - th**2 / 48.0, np.sin(half) / np.where(small, 1.0, th))
+    q = np.concatenate([np.cos(half)[..., None], k[..., None] * w], axis=-1)
+    return q
+
+
+def rotation_from_quat(q) -> np.ndarray:
+    """Rotation matrix of a quaternion ``[w, x, y, z]`` (normalised first; zero raises)."""
+    q = _as_array(q, "q", (4,))
+    n = np.linalg.norm(q, axis=-1, keepdims=True)
+    if np.any(n == 0.0) or not np.all(np.isfinite(n)):
+        raise InputError("quaternion must be finite and non-zero", argument="q", value=q)
+    w, x, y, z = np.moveaxis(q / n, -1, 0)
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+    ], -2)
+
+
+def rotation_from_rpy(rpy) -> np.ndarray:
+    """``R = Rz(yaw) Ry(pitch) Rx(roll)`` from ``[roll, pitch, yaw]`` [rad] (URDF convention)."""
+    rpy = _as_array(rpy, "rpy", (3,))
+    return rotz(rpy[..., 2]) @ roty(rpy[..., 1]) @ rotx(rpy[..., 0])
+
+
+def rpy_from_rotation(R) -> np.ndarray:
+    """``[roll, pitch, yaw]`` [rad] with ``R = Rz(yaw) Ry(pitch) Rx(roll)``.
+
+    At pitch = ±π/2 (gimbal lock) roll is set to 0 and yaw takes the whole angle.
+    """
+    R = _as_array(R, "R", (3, 3))
+    sp = np.clip(-R[..., 2, 0], -1.0, 1.0)
+    cp = np.hypot(R[..., 0, 0], R[..., 1, 0])
+    pitch = np.arctan2(sp, cp)
+    lock = cp < 1e-9
+    roll = np.where(lock, 0.0, np.arctan2(R[..., 2, 1], R[..., 2, 2]))
+    yaw = np.where(lock, np.arctan2(-R[..., 0, 1], R[..., 1, 1]),
+                   np.arctan2(R[..., 1, 0], R[..., 0, 0]))
+    return np.stack([roll, pitch, yaw], axis=-1)
+
+
+def adjoint(T) -> np.ndarray:
+    """Twist adjoint of ``T`` for ``[v; ω]`` twists: ``[[R, [p]×R], [0, R]]``, ``(..., 6, 6)``."""
+    T = _as_array(T, "T", (4, 4))
+    R = T[..., :3, :3]
+    out = np.zeros(T.shape[:-2] + (6, 6))
+    out[..., :3, :3] = R
+    out[..., 3:, 3:] = R
+    out[..., :3, 3:] = skew(T[..., :3, 3]) @ R
+    return out
+
+
+def interpolate(T0, T1, s, *, method: str = "decoupled") -> np.ndarray:
+    """Interpolate between two poses at fraction ``s`` ∈ [0, 1] (broadcasts over ``s``).
+
+    Args:
+        T0, T1: start and end poses, ``(4, 4)``.
+        s: fraction(s); 0 gives ``T0`` and 1 gives ``T1``.
+        method: ``"decoupled"`` — the position moves on the straight line and the
+            orientation on the SO(3) geodesic, ``R0 exp(s log(R0ᵀR1))`` (what a
+            Cartesian line means); ``"screw"`` — the SE(3) geodesic
+            ``T0 exp(s log(T0⁻¹T1))`` (a constant twist, a helix in space).
+    """
+    T0 = _as_array(T0, "T0", (4, 4))
+    T1 = _as_array(T1, "T1", (4, 4))
+    s = np.asarray(s, dtype=float)
+    if method == "decoupled":
+        R0 = T0[..., :3, :3]
+        w = so3_log(np.swapaxes(R0, -1, -2) @ T1[..., :3, :3])
+        R = R0 @ so3_exp(s[..., None] * w)
+        p = T0[..., :3, 3] + s[..., None] * (T1[..., :3, 3] - T0[..., :3, 3])
+        return transform(R, p)
+    if method == "screw":
+        xi = se3_log(inverse_transform(T0) @ T1)
+        return T0 @ se3_exp(s[..., None] * xi)
+    raise InputError(f"method must be 'decoupled' or 'screw', got {method!r}",
+                     argument="method", value=method)

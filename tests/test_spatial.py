@@ -1,0 +1,111 @@
+"""SO(3)/SE(3) helpers: accuracy near 0 and π, round trips, batching."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ratectl import spatial as sp
+
+vec3 = st.lists(st.floats(-1, 1, allow_nan=False), min_size=3, max_size=3).filter(
+    lambda v: np.linalg.norm(v) > 1e-3)
+
+
+@settings(max_examples=200, deadline=None)
+@given(vec3, st.floats(0.0, math.pi, allow_nan=False))
+def test_so3_exp_log_round_trip(axis, angle):
+    axis = np.array(axis) / np.linalg.norm(axis)
+    w = angle * axis
+    R = sp.so3_exp(w)
+    assert np.allclose(R @ R.T, np.eye(3), atol=1e-14)
+    w2 = sp.so3_log(R)
+    if angle < math.pi - 1e-9:
+        assert np.allclose(w2, w, atol=1e-10)
+    assert np.allclose(sp.so3_exp(w2), R, atol=1e-12)
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-12, 1e-8, 1e-4, math.pi - 1e-4, math.pi - 1e-8,
+                                   math.pi - 1e-12, math.pi])
+def test_log_accurate_near_zero_and_pi(angle):
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    R = sp.so3_exp(angle * axis)
+    w = sp.so3_log(R)
+    assert abs(np.linalg.norm(w) - angle) < 1e-9
+    if angle > 0:
+        assert abs(abs(w @ axis) / np.linalg.norm(w) - 1) < 1e-9
+    assert np.allclose(sp.so3_exp(w), R, atol=1e-13)
+
+
+def test_log_never_nan_for_slightly_non_orthogonal_rotations():
+    R = sp.rotz(math.pi) * (1 + 1e-12)
+    assert np.all(np.isfinite(sp.so3_log(R)))
+    R = np.eye(3) * (1 + 1e-12)
+    assert np.all(np.isfinite(sp.so3_log(R)))
+
+
+@settings(max_examples=100, deadline=None)
+@given(vec3, vec3, st.floats(0.0, 3.0))
+def test_se3_exp_log_round_trip(v, w, scale):
+    xi = np.concatenate([v, scale * np.array(w) / np.linalg.norm(w)])
+    T = sp.se3_exp(xi)
+    assert np.allclose(sp.se3_log(T), xi, atol=1e-9)
+
+
+def test_pose_error_convention():
+    T = sp.transform(sp.rotz(0.1), [1, 2, 3])
+    Td = sp.transform(sp.rotz(0.3), [1.5, 2, 3])
+    e = sp.pose_error(Td, T)
+    assert np.allclose(e, [0.5, 0, 0, 0, 0, 0.2])
+    # e rotates the actual orientation into the desired one, in base axes
+    assert np.allclose(sp.so3_exp(e[3:]) @ T[:3, :3], Td[:3, :3])
+
+
+def test_quaternion_round_trip_and_convention():
+    R = sp.rotx(math.pi / 2)
+    q = sp.quat_from_rotation(R)
+    assert np.allclose(q, [math.cos(math.pi / 4), math.sin(math.pi / 4), 0, 0])
+    rng = np.random.default_rng(0)
+    Rs = sp.so3_exp(rng.normal(size=(50, 3)))
+    assert np.allclose(sp.rotation_from_quat(sp.quat_from_rotation(Rs)), Rs, atol=1e-12)
+    assert np.allclose(sp.quat_from_rotation(sp.rotz(math.pi))[[0, 3]], [0, 1], atol=1e-12)
+
+
+def test_rpy_round_trip():
+    rpy = np.array([0.1, -0.4, 2.0])
+    R = sp.rotation_from_rpy(rpy)
+    assert np.allclose(R, sp.rotz(2.0) @ sp.roty(-0.4) @ sp.rotx(0.1))
+    assert np.allclose(sp.rpy_from_rotation(R), rpy)
+    # gimbal lock still reproduces the rotation
+    R = sp.rotation_from_rpy([0.3, math.pi / 2, 0.2])
+    assert np.allclose(sp.rotation_from_rpy(sp.rpy_from_rotation(R)), R, atol=1e-12)
+
+
+def test_interpolation_endpoints_and_midpoint():
+    T0 = sp.transform(sp.rotx(0.2), [0, 0, 0])
+    T1 = sp.transform(sp.rotx(1.0), [1, 0, 0])
+    for method in ("decoupled", "screw"):
+        Ts = sp.interpolate(T0, T1, np.array([0.0, 0.5, 1.0]), method=method)
+        assert np.allclose(Ts[0], T0) and np.allclose(Ts[2], T1)
+        assert np.allclose(Ts[1][:3, :3], sp.rotx(0.6))
+    assert np.allclose(sp.interpolate(T0, T1, 0.5)[:3, 3], [0.5, 0, 0])
+    with pytest.raises(ValueError, match="decoupled"):
+        sp.interpolate(T0, T1, 0.5, method="linear")
+
+
+def test_inverse_and_adjoint():
+    T = sp.transform(sp.so3_exp([0.1, 0.2, 0.3]), [1, -2, 0.5])
+    assert np.allclose(T @ sp.inverse_transform(T), np.eye(4))
+    xi = np.array([0.1, 0.2, 0.3, -0.2, 0.5, 0.1])
+    # Ad_T xi is the same motion expressed in the outer frame
+    lhs = T @ sp.se3_exp(1e-6 * xi) @ sp.inverse_transform(T)
+    assert np.allclose(sp.se3_log(lhs) / 1e-6, sp.adjoint(T) @ xi, atol=1e-5)
+
+
+def test_skew_vee_batched():
+    v = np.arange(12.0).reshape(4, 3)
+    S = sp.skew(v)
+    assert S.shape == (4, 3, 3)
+    assert np.allclose(sp.vee(S), v)
+    assert np.allclose(S[1] @ [1, 2, 3], np.cross(v[1], [1, 2, 3]))
