@@ -2,9 +2,17 @@
 
 Jacobian core → singularity analysis → inverse velocity (exact, damped, QP) →
 resolved-rate controller and path following → Ruckig smoothing.
+
+The core (``DH``, ``MDH``, ``Chain``, ``robots``, ``spatial``) is imported eagerly;
+the rest is imported on first use, so ``import ratectl`` stays cheap and optional
+extras (matplotlib, mujoco) are only needed by the functions that use them.
 """
 
-from . import errors, robots, spatial
+from __future__ import annotations
+
+import importlib
+
+from . import errors, kinematics, robots, spatial
 from .chain import DH, MDH, Chain, Joint
 from .errors import (
     ImportModelError,
@@ -17,18 +25,43 @@ from .errors import (
 
 __version__ = "0.1.0"
 
+# public name -> module that defines it (imported lazily)
+_LAZY_ATTRS = {
+    "singular_values": "singularity",
+    "manipulability": "singularity",
+    "condition_number": "singularity",
+    "analyze": "singularity",
+    "scan": "singularity",
+    "SingularityReport": "singularity",
+    "manipulability_gradient": "singularity",
+    "workspace_map": "singularity",
+    "ResolvedRateController": "controller",
+    "Command": "controller",
+    "follow": "follow",
+    "Execution": "execution",
+}
+_LAZY_MODULES = ("solvers", "qp", "singularity", "controller", "paths", "smoothing", "governor",
+                 "follow", "execution", "importers", "mujoco", "cli", "hessian")
+
 __all__ = [
-    "DH",
-    "MDH",
-    "Chain",
-    "Joint",
-    "errors",
-    "robots",
-    "spatial",
-    "RatectlError",
-    "ModelError",
-    "InputError",
-    "SingularityError",
-    "SolverError",
-    "ImportModelError",
+    "DH", "MDH", "Chain", "Joint", "errors", "kinematics", "robots", "spatial",
+    "RatectlError", "ModelError", "InputError", "SingularityError", "SolverError",
+    "ImportModelError", *_LAZY_ATTRS, *_LAZY_MODULES,
 ]
+
+
+def __getattr__(name: str):
+    if name in _LAZY_MODULES:
+        module = importlib.import_module(f".{name}", __name__)
+        globals()[name] = module
+        return module
+    if name in _LAZY_ATTRS:
+        module = importlib.import_module(f".{_LAZY_ATTRS[name]}", __name__)
+        value = getattr(module, name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'ratectl' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

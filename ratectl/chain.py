@@ -451,7 +451,8 @@ class Chain:
         return lo + (hi - lo) * rng.random(shape)
 
     def __repr__(self) -> str:
-        return f"Chain(name={self._name!r}, dof={self._n}, joints={''.join('RP'[int(p)] for p in self._prismatic)})"
+        kinds = "".join("RP"[int(p)] for p in self._prismatic)
+        return f"Chain(name={self._name!r}, dof={self._n}, joints={kinds})"
 
     def describe(self) -> str:
         """A multi-line table of the model (joints, kinds, limits)."""

@@ -229,7 +229,8 @@ def random_chain(draw):
             for _ in range(n)]
     tool = rc.spatial.transform(rc.spatial.so3_exp(draw(st.lists(lengths, min_size=3, max_size=3))),
                                 draw(st.lists(lengths, min_size=3, max_size=3)))
-    base = rc.spatial.transform(rc.spatial.rotx(draw(angles)), draw(st.lists(lengths, min_size=3, max_size=3)))
+    vec = st.lists(lengths, min_size=3, max_size=3)
+    base = rc.spatial.transform(rc.spatial.rotx(draw(angles)), draw(vec))
     build = rc.Chain.from_dh if cls is rc.DH else rc.Chain.from_mdh
     chain = build(rows, tool=tool, base=base)
     q = np.array(draw(st.lists(st.floats(-math.pi, math.pi, allow_nan=False), min_size=n, max_size=n)))
