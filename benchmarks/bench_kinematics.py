@@ -1,0 +1,168 @@
+"""Kinematics speed: fk + Jacobian for one configuration, and batched Jacobians.
+
+Run:  python benchmarks/bench_kinematics.py [--quick]
+
+Prints, for each built-in arm, the median µs per call of ``fk_jacobian`` (one
+combined call) and of ``fk`` + ``jacobian`` (two calls), and configurations per
+second of batched ``jacobian`` at B = 10^4 and 10^5. When Pinocchio,
+roboticstoolbox-python or MuJoCo are installed, the same work is measured with
+them in the same run (same arm, results cross-checked) and ratios are printed.
+Pin to one core for the "one core" figures: ``taskset -c 0 python ...``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+from _timing import median_s, median_us  # noqa: E402
+
+import ratectl as rc  # noqa: E402
+
+
+def pinocchio_model(chain):
+    """The same chain as a Pinocchio model: joint placement = post_{i-1} · pre_i, tool frame."""
+    import pinocchio as pin
+
+    model = pin.Model()
+    parent = 0
+    carry = chain.base.copy()
+    for k, joint in enumerate(chain.joints):
+        M = carry @ joint.pre
+        jm = pin.JointModelRZ() if joint.kind == "revolute" else pin.JointModelPZ()
+        parent = model.addJoint(parent, jm, pin.SE3(M[:3, :3], M[:3, 3]), f"j{k}")
+        model.appendBodyToJoint(parent, pin.Inertia.Random(), pin.SE3.Identity())
+        carry = joint.post
+    T = carry @ chain.tool
+    fid = model.addFrame(pin.Frame("tool", parent, 0, pin.SE3(T[:3, :3], T[:3, 3]), pin.FrameType.OP_FRAME))
+    return model, model.createData(), fid
+
+
+def bench_pinocchio(chain, q, qs):
+    import pinocchio as pin
+
+    model, data, fid = pinocchio_model(chain)
+    ref = pin.LOCAL_WORLD_ALIGNED
+
+    def one(qq):
+        J = pin.computeFrameJacobian(model, data, qq, fid, ref)  # runs forward kinematics
+        pin.updateFramePlacement(model, data, fid)
+        return data.oMf[fid].homogeneous, J
+
+    T, J = one(q)
+    T0, J0 = chain.fk_jacobian(q)
+    assert np.allclose(T, T0, atol=1e-10) and np.allclose(J, J0, atol=1e-10), "pinocchio disagrees"
+    us = median_us(lambda: one(q))
+
+    def loop():
+        for row in qs:
+            pin.computeFrameJacobian(model, data, row, fid, ref)
+
+    return us, len(qs) / median_s(loop, repeat=3)
+
+
+def bench_rtb(chain, q):
+    import roboticstoolbox as rtb
+
+    if chain.table is None:
+        return None
+    links = []
+    for r in chain.table:
+        if r.convention == "standard":
+            cls = rtb.RevoluteDH if r.joint == "revolute" else rtb.PrismaticDH
+        else:
+            cls = rtb.RevoluteMDH if r.joint == "revolute" else rtb.PrismaticMDH
+        kw = dict(a=r.a, alpha=r.alpha)
+        kw.update(offset=r.theta, d=r.d) if r.joint == "revolute" else kw.update(theta=r.theta, offset=r.d)
+        links.append(cls(**kw))
+    robot = rtb.DHRobot(links, tool=chain.tool)
+    T = np.asarray(robot.fkine(q))
+    J = robot.jacob0(q)
+    T0, J0 = chain.fk_jacobian(q)
+    assert np.allclose(T, T0, atol=1e-9) and np.allclose(J, J0, atol=1e-9), "rtb disagrees"
+    dh_us = median_us(lambda: (robot.fkine(q), robot.jacob0(q)), number=200, repeat=5)
+    ets = robot.ets()
+    ets_us = median_us(lambda: (ets.fkine(q), ets.jacob0(q)), number=2000, repeat=7)
+    return dh_us, ets_us
+
+
+def bench_mujoco(chain, q):
+    try:
+        import mujoco
+        from ratectl.mujoco import to_mjcf
+    except Exception:  # noqa: BLE001 - optional
+        return None
+    model = mujoco.MjModel.from_xml_string(to_mjcf(chain))
+    data = mujoco.MjData(model)
+    sid = model.nsite - 1
+    jacp = np.zeros((3, model.nv))
+    jacr = np.zeros((3, model.nv))
+
+    def one():
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_jacSite(model, data, jacp, jacr, sid)
+
+    one()
+    J0 = chain.jacobian(q)
+    if not (np.allclose(jacp, J0[:3], atol=1e-9) and np.allclose(jacr, J0[3:], atol=1e-9)):
+        return None
+    return median_us(one)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer repetitions, B = 10^4 only")
+    ap.add_argument("--arms", default=",".join(k for k in rc.robots.BUILTIN if k != "planar2r"))
+    args = ap.parse_args(argv)
+    rng = np.random.default_rng(0)
+    print(f"ratectl {rc.__version__}, numpy {np.__version__}")
+    print(f"{'arm':14s} {'fk_jacobian µs':>15s} {'fk+jacobian µs':>15s} "
+          f"{'batch 1e4 /s':>13s} {'batch 1e5 /s':>13s}")
+    sizes = (10_000,) if args.quick else (10_000, 100_000)
+    for name in args.arms.split(","):
+        chain = rc.robots.BUILTIN[name]()
+        q = chain.random_q(rng=rng)
+        n = 500 if args.quick else 5000
+        one = median_us(lambda: chain.fk_jacobian(q), number=n)
+        two = median_us(lambda: (chain.fk(q), chain.jacobian(q)), number=n)
+        rates = []
+        for B in sizes:
+            qs = chain.random_q(B, rng=rng)
+            rates.append(B / median_s(lambda: chain.jacobian(qs), repeat=3 if args.quick else 7))
+        rates += [float("nan")] * (2 - len(rates))
+        print(f"{chain.name:14s} {one:15.2f} {two:15.2f} {rates[0]:13.3e} {rates[1]:13.3e}")
+
+    print("\npeers on the UR5e (same work, results cross-checked):")
+    chain = rc.robots.ur5e()
+    q = chain.random_q(rng=rng)
+    ours = median_us(lambda: chain.fk_jacobian(q))
+    qs = chain.random_q(100_000, rng=rng)
+    ours_rate = 1e5 / median_s(lambda: chain.jacobian(qs), repeat=3 if args.quick else 7)
+    print(f"  ratectl fk_jacobian        {ours:8.2f} µs   batched {ours_rate:.3e} configs/s")
+    try:
+        us, rate = bench_pinocchio(chain, q, qs[:20_000])
+        print(f"  pinocchio frame Jacobian   {us:8.2f} µs   loop    {rate:.3e} configs/s "
+              f"(ratectl/pinocchio time {ours / us:.2f}x, batch speed-up {ours_rate / rate:.1f}x)")
+    except ImportError:
+        print("  pinocchio not installed")
+    try:
+        res = bench_rtb(chain, q)
+        if res:
+            print(f"  rtb DHRobot fkine+jacob0   {res[0]:8.2f} µs   (ratectl {res[0] / ours:.0f}x faster)")
+            print(f"  rtb ETS fkine+jacob0 (C)   {res[1]:8.2f} µs   (ratectl {res[1] / ours:.1f}x faster)")
+    except ImportError:
+        print("  roboticstoolbox-python not installed")
+    mj = bench_mujoco(chain, q)
+    if mj is not None:
+        print(f"  mujoco mj_kinematics+jacSite {mj:6.2f} µs (ratectl/mujoco time {ours / mj:.2f}x)")
+    else:
+        print("  mujoco comparison unavailable (needs ratectl.mujoco.to_mjcf and mujoco)")
+
+
+if __name__ == "__main__":
+    main()
