@@ -93,6 +93,7 @@ def bench_rtb(chain, q):
 def bench_mujoco(chain, q):
     try:
         import mujoco
+
         from ratectl.mujoco import to_mjcf
     except Exception:  # noqa: BLE001 - optional
         return None

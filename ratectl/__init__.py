@@ -41,7 +41,7 @@ _LAZY_ATTRS = {
     "Execution": "execution",
 }
 _LAZY_MODULES = ("solvers", "qp", "singularity", "controller", "paths", "smoothing", "governor",
-                 "follow", "execution", "importers", "mujoco", "cli", "hessian")
+                 "follow", "execution", "importers", "mujoco", "cli", "hessian", "demo")
 
 __all__ = [
     "DH", "MDH", "Chain", "Joint", "errors", "kinematics", "robots", "spatial",
@@ -51,15 +51,16 @@ __all__ = [
 
 
 def __getattr__(name: str):
-    if name in _LAZY_MODULES:
-        module = importlib.import_module(f".{name}", __name__)
-        globals()[name] = module
-        return module
+    # attributes first: ``follow`` is both a module and the function users call
     if name in _LAZY_ATTRS:
         module = importlib.import_module(f".{_LAZY_ATTRS[name]}", __name__)
         value = getattr(module, name)
         globals()[name] = value
         return value
+    if name in _LAZY_MODULES:
+        module = importlib.import_module(f".{name}", __name__)
+        globals()[name] = module
+        return module
     raise AttributeError(f"module 'ratectl' has no attribute {name!r}")
 
 

@@ -526,7 +526,7 @@ class Chain:
         return kinematics.jacobian_dot(self, q, qd, frame=frame, point=point)
 
     def joint_torques(self, q, wrench, *, frame: str = "base", point=None) -> np.ndarray:
-        """Static joint torques τ = Jᵀ F for a tool wrench F = [f; τ] [N; N·m]."""
+        """Static joint torques τ = Jᵀ F for a tool wrench F = [f; τ], in N and N·m."""
         return kinematics.joint_torques(self, q, wrench, frame=frame, point=point)
 
 
