@@ -1,0 +1,136 @@
+"""Inverse-velocity speed: fk + Jacobian + solver for one UR5e configuration.
+
+Run:  python benchmarks/bench_solvers.py [--quick]
+
+Prints the median µs per control step (``chain.fk_jacobian(q)`` followed by
+``solver.solve(J, xi, ...)``) for every solver, the QP with velocity and position
+limits both when no limit binds (the unconstrained shortcut answers) and when the
+velocity limit binds (warm OSQP, and daqp through qpsolvers), and, when Pinocchio is
+installed, Pinocchio's Jacobian plus a plain numpy DLS for scale. Results of the
+solvers are cross-checked against numpy before timing. Pin to one core for the
+"one core" figures: ``taskset -c 0 python benchmarks/bench_solvers.py``.
+
+Targets (issue #4): fk + J + fixed-λ DLS ≤ 12 µs; + adaptive DLS ≤ 25 µs;
++ QP with velocity and position limits on the default backend ≤ 30 µs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+from _timing import median_us  # noqa: E402
+
+import ratectl as rc  # noqa: E402
+from ratectl import solvers as S  # noqa: E402
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repetitions (a smoke run)")
+    args = parser.parse_args(argv)
+    number, repeat = (200, 3) if args.quick else (2000, 15)
+
+    ur = rc.robots.ur5e()
+    q = np.array([0.3, -1.2, 1.5, -1.9, -1.4, 0.6])  # a regular configuration (σ_min ≈ 0.1)
+    xi = np.array([0.05, -0.02, 0.03, 0.1, -0.05, 0.2])  # a modest twist: no limit binds
+    xi_fast = 20.0 * xi  # needs more than vmax: the velocity limit binds
+    T, J = ur.fk_jacobian(q)
+    exact = np.linalg.solve(J, xi)
+    lam = 0.05
+    dls_ref = J.T @ np.linalg.solve(J @ J.T + lam**2 * np.eye(6), xi)
+
+    rows = []
+
+    def row(name, fn, check=None):
+        if check is not None:
+            check()
+        rows.append((name, median_us(fn, number=number, repeat=repeat)))
+
+    fkj = ur.fk_jacobian
+    row("fk_jacobian alone", lambda: fkj(q))
+
+    def step(solver, twist, **kw):
+        return lambda: solver.solve(fkj(q)[1], twist, **kw)
+
+    dls = S.DLS(damping=lam)
+    row("fk + J + DLS (fixed λ)", step(dls, xi),
+        lambda: _close(dls.solve(J, xi).qd, dls_ref, 1e-12, "DLS"))
+    ad = S.AdaptiveDLS(epsilon=0.05, max_damping=0.05)
+    row("fk + J + AdaptiveDLS (σ schedule)", step(ad, xi),
+        lambda: _close(ad.solve(J, xi).qd, exact, 1e-9, "AdaptiveDLS"))
+    fd = S.AdaptiveDLS(epsilon=0.05, max_damping=0.05, mode="filtered")
+    row("fk + J + AdaptiveDLS (filtered)", step(fd, xi),
+        lambda: _close(fd.solve(J, xi).qd, exact, 1e-9, "filtered"))
+    md = S.AdaptiveDLS(max_damping=0.05, mode="manipulability", manipulability_threshold=1e-4)
+    row("fk + J + AdaptiveDLS (manipulability)", step(md, xi))
+    row("fk + J + Inverse", step(S.Inverse(), xi))
+    row("fk + J + PseudoInverse", step(S.PseudoInverse(), xi))
+    row("fk + J + SDLS", step(S.SDLS(characteristic_length=ur.characteristic_length), xi))
+    row("fk + J + DLS + velocity policy (limits=chain)", step(dls, xi, limits=ur))
+
+    qp = S.QP(damping=lam)
+    kw = dict(limits=ur, q=q, dt=0.002)
+
+    def qp_check():
+        r = qp.solve(J, xi, **kw)
+        assert r.info["status"] == "unconstrained" and r.limits_active == ()
+        _close(r.qd, dls_ref, 1e-12, "QP")
+
+    row("fk + J + QP vel+pos limits, none binding (osqp)", step(qp, xi, **kw), qp_check)
+
+    def qp_active_check():
+        r = qp.solve(J, xi_fast, **kw)
+        assert r.info["status"] == "solved" and "velocity" in r.limits_active, r.info
+        if "daqp" in __import__("qpsolvers").available_solvers:
+            d = S.QP(damping=lam, backend="daqp").solve(J, xi_fast, **kw)
+            _close(r.qd, d.qd, 1e-6, "QP osqp vs daqp")
+
+    row("fk + J + QP vel+pos limits, velocity binding (warm osqp)", step(qp, xi_fast, **kw),
+        qp_active_check)
+    kw_acc = dict(kw, qd_prev=qp.solve(J, xi, **kw).qd)
+    row("fk + J + QP vel+pos+acc limits, none binding (osqp)", step(qp, xi, **kw_acc))
+    import qpsolvers
+
+    if "daqp" in qpsolvers.available_solvers:
+        qd_ = S.QP(damping=lam, backend="daqp")
+        row("fk + J + QP vel+pos limits, velocity binding (daqp via qpsolvers)",
+            step(qd_, xi_fast, **kw))
+
+    try:
+        import pinocchio as pin
+        from bench_kinematics import pinocchio_model
+    except ImportError:
+        pin = None
+    if pin is not None:
+        model, data, fid = pinocchio_model(ur)
+        ref = pin.LOCAL_WORLD_ALIGNED
+        I6 = lam**2 * np.eye(6)
+
+        def pin_dls():
+            Jp = pin.computeFrameJacobian(model, data, q, fid, ref)
+            pin.updateFramePlacement(model, data, fid)
+            return Jp.T @ np.linalg.solve(Jp @ Jp.T + I6, xi)
+
+        _close(pin_dls(), dls_ref, 1e-10, "pinocchio DLS")
+        row("peer: Pinocchio J + numpy DLS (no result object)", pin_dls)
+
+    width = max(len(n) for n, _ in rows)
+    print(f"UR5e, one configuration; median of {repeat} rounds × {number} calls")
+    for name, us in rows:
+        print(f"  {name:<{width}}  {us:8.2f} µs")
+    return 0
+
+
+def _close(a, b, tol, what):
+    err = float(np.max(np.abs(np.asarray(a) - np.asarray(b))))
+    if err > tol:
+        raise AssertionError(f"{what}: result differs from the reference by {err:.3g}")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
