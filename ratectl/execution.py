@@ -1,0 +1,176 @@
+"""The record of an executed motion: :class:`Execution`.
+
+Returned by :func:`ratectl.follow` (kinematic path following) and by the MuJoCo
+simulation; generic on purpose — arrays over the K recorded steps plus metadata —
+so any producer can fill it. Arrays that a producer does not have are ``None``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Execution"]
+
+
+@dataclass(frozen=True, eq=False)
+class Execution:
+    """An executed joint motion and how well it did.
+
+    Attributes (arrays over K recorded steps):
+        t: (K,) times [s].
+        q, qd, qdd: (K, n) joint positions, velocities [rad/s or m/s], accelerations.
+        poses: (K, 4, 4) tool poses fk(q), or None.
+        position_error: (K,) distance of the tool origin from the *path* (nearest point
+            of the curve) [m]; orientation_error: (K,) angle between the tool orientation
+            and the path's orientation at that point [rad].
+        tracking_error: (K,) distance from the *reference* pose of the same step [m] (how
+            far behind or ahead of the schedule), or None.
+        statuses: (K,) controller status per step (see ``ratectl.controller.STATUSES``).
+        kinds: (K,) singularity kind for steps whose status is "damped" or "singular"
+            (None elsewhere), or None when not recorded.
+        sigma_min: (K,) σ_min(J) per step (NaN where unknown).
+        s: (K,) path parameter of the reference per step [m], or None.
+        nominal_duration: duration of the path's own time law [s].
+        duration: duration of the execution [s] (``t[-1] − t[0]``).
+        completed: the motion reached the end of the path within tolerance.
+        message: a one-line account (why it did not complete, how much longer it took).
+        source: who produced it ("follow", "simulate", ...).
+        chain_name: the arm's name; joint_names: its joint names.
+        vmax, amax: (n,) joint limits used for checks and plots, or None.
+        info: further numbers (e.g. the governor plan, solver names).
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    poses: np.ndarray | None = None
+    position_error: np.ndarray | None = None
+    orientation_error: np.ndarray | None = None
+    tracking_error: np.ndarray | None = None
+    statuses: tuple[str, ...] = ()
+    kinds: tuple | None = None
+    sigma_min: np.ndarray | None = None
+    s: np.ndarray | None = None
+    nominal_duration: float = float("nan")
+    duration: float = float("nan")
+    completed: bool = False
+    message: str = ""
+    source: str = ""
+    chain_name: str = ""
+    joint_names: tuple[str, ...] = ()
+    vmax: np.ndarray | None = None
+    amax: np.ndarray | None = None
+    info: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------------ summaries
+    @property
+    def steps(self) -> int:
+        return len(self.t)
+
+    @property
+    def extra_time(self) -> float:
+        """duration − nominal duration [s] (how much longer the motion took)."""
+        return self.duration - self.nominal_duration
+
+    @property
+    def slowdown(self) -> float:
+        """duration / nominal duration (1 = on schedule)."""
+        return self.duration / self.nominal_duration if self.nominal_duration > 0 else float("nan")
+
+    @property
+    def max_position_error(self) -> float:
+        """Largest distance from the path [m]."""
+        return float(np.max(self.position_error)) if self.position_error is not None else float("nan")
+
+    @property
+    def max_orientation_error(self) -> float:
+        """Largest orientation error [rad]."""
+        return float(np.max(self.orientation_error)) if self.orientation_error is not None else float("nan")
+
+    @property
+    def velocity_ratio(self) -> float:
+        """max over steps and joints of |q̇_i|/vmax_i (≤ 1 when the limits held)."""
+        if self.vmax is None:
+            return float("nan")
+        return float(np.max(np.abs(self.qd) / self.vmax))
+
+    @property
+    def acceleration_ratio(self) -> float:
+        """max over steps and joints of |q̈_i|/amax_i."""
+        if self.amax is None:
+            return float("nan")
+        return float(np.max(np.abs(self.qdd) / self.amax))
+
+    def status_counts(self) -> dict[str, int]:
+        """How many steps had each status."""
+        out: dict[str, int] = {}
+        for s in self.statuses:
+            out[s] = out.get(s, 0) + 1
+        return out
+
+    def summary(self) -> str:
+        """A few lines: completion, timing, errors, limits, statuses."""
+        lines = [f"{self.source or 'execution'} of {self.chain_name or 'arm'}: "
+                 f"{'completed' if self.completed else 'NOT completed'}"
+                 + (f" — {self.message}" if self.message else "")]
+        if math.isfinite(self.nominal_duration):
+            lines.append(f"  duration {self.duration:.3f} s vs nominal {self.nominal_duration:.3f} s "
+                         f"(+{self.extra_time:.3f} s, ×{self.slowdown:.2f})")
+        if self.position_error is not None:
+            lines.append(f"  max path error {self.max_position_error * 1e3:.4g} mm, "
+                         f"{math.degrees(self.max_orientation_error):.4g}°")
+        lines.append(f"  max |q̇|/vmax {self.velocity_ratio:.3f}, max |q̈|/amax {self.acceleration_ratio:.3f}")
+        if self.sigma_min is not None and np.any(np.isfinite(self.sigma_min)):
+            lines.append(f"  min σ_min {np.nanmin(self.sigma_min):.4g}")
+        if self.statuses:
+            lines.append("  statuses: " + ", ".join(f"{k} {v}" for k, v in self.status_counts().items()))
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        return (f"Execution(source={self.source!r}, steps={self.steps}, completed={self.completed}, "
+                f"duration={self.duration:.4g} s)")
+
+    # ------------------------------------------------------------------ plot
+    def plot(self, *, file=None, title: str | None = None):
+        """Joint velocities (with ±vmax), path errors and σ_min against time.
+
+        matplotlib is imported here (optional dependency). Returns the figure; with
+        ``file`` it is also saved there (the backend is not changed otherwise).
+        """
+        import matplotlib.pyplot as plt
+
+        rows = 3 if self.sigma_min is not None else 2
+        fig, axes = plt.subplots(rows, 1, sharex=True, figsize=(8, 2.4 * rows + 0.6))
+        ax = axes[0]
+        names = self.joint_names or tuple(f"q{i + 1}" for i in range(self.qd.shape[1]))
+        for i in range(self.qd.shape[1]):
+            line, = ax.plot(self.t, self.qd[:, i], lw=1.2, label=names[i])
+            if self.vmax is not None and np.isfinite(self.vmax[i]):
+                ax.axhline(self.vmax[i], color=line.get_color(), lw=0.6, ls=":")
+                ax.axhline(-self.vmax[i], color=line.get_color(), lw=0.6, ls=":")
+        ax.set_ylabel("q̇ [rad/s]")
+        ax.legend(fontsize=7, ncol=min(7, self.qd.shape[1]), loc="upper right")
+        ax = axes[1]
+        if self.position_error is not None:
+            ax.plot(self.t, self.position_error * 1e3, color="C0", label="position [mm]")
+            ax.set_ylabel("path error [mm]")
+            ax2 = ax.twinx()
+            ax2.plot(self.t, np.degrees(self.orientation_error), color="C3", lw=1, label="orientation [°]")
+            ax2.set_ylabel("[°]", color="C3")
+            ax.legend(loc="upper left", fontsize=7)
+            ax2.legend(loc="upper right", fontsize=7)
+        if rows == 3:
+            ax = axes[2]
+            ax.semilogy(self.t, self.sigma_min, color="k")
+            ax.set_ylabel("σ_min(J)")
+        axes[-1].set_xlabel("t [s]")
+        fig.suptitle(title or f"{self.chain_name} — {self.source}: "
+                     f"{self.duration:.2f} s (nominal {self.nominal_duration:.2f} s)", fontsize=10)
+        fig.tight_layout()
+        if file is not None:
+            fig.savefig(file, dpi=110)
+        return fig

@@ -1,0 +1,549 @@
+"""Path-speed governor: slow the progress along a path so the joints stay within limits.
+
+A Cartesian path fixes *where* the tool goes; its time law fixes *when*. Near a
+singular configuration the joint velocities a fixed time law demands grow without
+bound (``q̇ = J⁻¹ξ``), and every inverse-velocity solver then gives something up:
+the exact inverse exceeds the limits, a clipping QP or a damped inverse leaves the
+path. The governor gives up *time* instead: it keeps the tool on the path and
+re-times the progress s(t) so that
+
+    q̇ = q'(s) ṡ,    q̈ = q'(s) s̈ + q''(s) ṡ²
+
+stay within ``velocity_margin·vmax`` and ``acceleration_margin·amax`` on every joint
+(``q' = dq/ds``, ``q'' = d²q/ds²`` along the joint path), and within the path's own
+speed and acceleration limits.
+
+How (all done once, before the motion — :func:`plan`):
+
+1. **Joint path.** Integrate ``dq/ds = J⁺(q) dP/ds`` from q0 with steps small enough
+   that no joint moves more than ``max_joint_step`` [rad], correcting every step by
+   Newton iterations ``q ← q + J⁺ e`` onto the exact pose P(s) (e = pose error). For a
+   redundant arm the null-space term ``(I − J⁺J) z`` with z = −k W (q − q_mid) keeps the
+   joints away from their limits. q'(s) comes from the same formula, q''(s) from
+   differences of q'. The integration stops at a configuration where σ_min(J) falls
+   below ``sigma_tolerance`` (a workspace boundary): the plan then ends there and
+   says so.
+2. **Admissible speed** (TOPP by numerical integration on x = ṡ²). The velocity
+   limits give ``x ≤ (v_i/|q'_i|)²``; the acceleration limits
+   ``−a_i ≤ q'_i u + q''_i x ≤ a_i`` (u = s̈) bound u for each x and, where they cannot
+   all hold, bound x itself. A forward pass (accelerate as much as allowed) and a
+   backward pass (decelerate in time for every dip) give the fastest feasible x(s).
+3. **Jerk-limited progress.** A 1-D Ruckig trajectory generator advances s every
+   control period with |s̈| ≤ path acceleration and |s⃛| ≤ path jerk: its velocity
+   interface follows, as target speed, the smallest admissible ṡ over a look-ahead
+   window ahead of s, and near the end its position interface brings s to the end at
+   rest. So the progress variable is jerk-limited, and it slows *before* the singular
+   neighbourhood.
+4. **Check.** The discrete joint motion the executor will command (secant velocities
+   between planned configurations and their differences) is checked against the
+   limits; if any exceeds ``check_fraction`` of a limit, the margins shrink by 15 %
+   and steps 2–3 are repeated (at most ``max_iterations`` times). With
+   ``check_jerk`` (used when a jerk-limited smoother executes the plan) the planned
+   joint jerk is checked against jmax as well, halving the progress jerk until it fits.
+   A joint path that crosses a joint *position* limit is reported in the plan's message
+   (re-timing cannot avoid it).
+
+The executor (:func:`ratectl.follow`) then feeds the planned joint velocity forward
+and closes the loop on the pose error through the controller, so the tool stays on
+the path to within the feedback's accuracy.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["Governor", "GovernorPlan", "JointPath", "joint_path", "plan"]
+
+
+# ---------------------------------------------------------------------- joint path
+@dataclass(frozen=True)
+class JointPath:
+    """The joint path q(s) along a Cartesian path (step 1 of the governor).
+
+    Attributes:
+        s: (N,) path parameters [m], increasing from 0.
+        q: (N, n) joint positions with fk(q[k]) = P(s[k]) (to ~1e-10).
+        dq: (N, n) q'(s) = dq/ds [rad/m]; ddq: (N, n) q''(s) [rad/m²].
+        sigma_min: (N,) smallest singular value of J along the path.
+        complete: True when the whole path was integrated.
+        message: why the integration stopped early ("" when complete).
+    """
+
+    s: np.ndarray
+    q: np.ndarray
+    dq: np.ndarray
+    ddq: np.ndarray
+    sigma_min: np.ndarray
+    complete: bool
+    message: str = ""
+
+    def interpolate(self, s) -> np.ndarray:
+        """q at path parameters ``s`` (scalar or (M,)) by cubic Hermite interpolation of q, q'."""
+        s = np.asarray(s, dtype=float)
+        flat = np.atleast_1d(s)
+        grid = self.s
+        k = np.clip(np.searchsorted(grid, flat, side="right") - 1, 0, len(grid) - 2)
+        h = grid[k + 1] - grid[k]
+        u = np.clip((flat - grid[k]) / h, 0.0, 1.0)[:, None]
+        h = h[:, None]
+        u2, u3 = u * u, u * u * u
+        h00, h10, h01, h11 = 2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2
+        out = (h00 * self.q[k] + h10 * h * self.dq[k] + h01 * self.q[k + 1] + h11 * h * self.dq[k + 1])
+        return out[0] if s.ndim == 0 else out
+
+    def derivatives(self, s):
+        """(q'(s), q''(s)) at ``s`` (M,) by linear interpolation of the grid values."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        d1 = np.stack([np.interp(s, self.s, self.dq[:, i]) for i in range(self.dq.shape[1])], axis=1)
+        d2 = np.stack([np.interp(s, self.s, self.ddq[:, i]) for i in range(self.ddq.shape[1])], axis=1)
+        return d1, d2
+
+
+def _pinv_step(J, v, *, redundant: bool):
+    """Minimum-norm solution of J x = v (exact solve when square)."""
+    if not redundant:
+        return np.linalg.solve(J, v)
+    return J.T @ np.linalg.solve(J @ J.T, v)
+
+
+def _tangent(J, t, z, *, redundant: bool):
+    """q' = J⁺ t + (I − J⁺J) z (the second term only for redundant arms)."""
+    if not redundant:
+        return np.linalg.solve(J, t)
+    JJt = J @ J.T
+    x = J.T @ np.linalg.solve(JJt, t)
+    if z is not None:
+        x = x + z - J.T @ np.linalg.solve(JJt, J @ z)
+    return x
+
+
+def _err(Td, T):
+    """Pose error [p_d − p; log(R_d Rᵀ)] for small errors (first order in the rotation)."""
+    e = np.empty(6)
+    e[:3] = Td[:3, 3] - T[:3, 3]
+    Re = Td[:3, :3] @ T[:3, :3].T
+    e[3] = 0.5 * (Re[2, 1] - Re[1, 2])
+    e[4] = 0.5 * (Re[0, 2] - Re[2, 0])
+    e[5] = 0.5 * (Re[1, 0] - Re[0, 1])
+    return e
+
+
+def _kind(chain, q) -> str | None:
+    """The singularity kind from :func:`ratectl.analyze` (None if unavailable)."""
+    try:
+        from .singularity import analyze
+
+        return str(analyze(chain, q).kind)
+    except Exception:  # noqa: BLE001 - the kind only decorates a message
+        return None
+
+
+def joint_path(chain, path, q0, *, max_joint_step: float = 0.004, max_step: float | None = None,
+               sigma_tolerance: float = 1e-3, nullspace_gain: float = 1.0, pose_tolerance: float = 1e-4,
+               max_points: int = 200000) -> JointPath:
+    """Integrate the joint path q(s) along ``path`` from ``q0`` (step 1 of the governor).
+
+    Args:
+        chain: the arm; path: a :class:`ratectl.paths.Path`; q0: joint positions at the start
+            (fk(q0) must be within ``pose_tolerance`` [m / rad] of the path start; it is
+            corrected onto it by Newton iterations).
+        max_joint_step: largest joint change per integration step [rad].
+        max_step: largest step in s [m] (default length/200).
+        sigma_tolerance: stop where σ_min(J) drops below this (workspace boundary / singular).
+        nullspace_gain: k of the joint-centring null-space term for redundant arms [1/m].
+    """
+    q = chain.check_q(q0).astype(float).copy()
+    if q.ndim != 1:
+        raise InputError(f"q0 must be one configuration (n,), got shape {q.shape}", argument="q0", value=q0)
+    n = chain.dof
+    redundant = n > 6
+    L = path.length
+    max_step = max_step or max(L / 200.0, 1e-6)
+    lo, hi = chain.lower, chain.upper
+    finite = np.isfinite(lo) & np.isfinite(hi)
+    lo0, hi0 = np.where(finite, lo, 0.0), np.where(finite, hi, 0.0)
+    mid = 0.5 * (lo0 + hi0)
+    half = np.where(finite, 0.5 * (hi0 - lo0), np.inf)
+    wgt = np.where(finite, 1.0 / half, 0.0)
+
+    def z_of(q):
+        if not redundant or nullspace_gain == 0.0:
+            return None
+        return -nullspace_gain * wgt * wgt * (q - mid)
+
+    def correct(q, Td, iters=8):
+        for _ in range(iters):
+            T, J = chain.fk_jacobian(q)
+            e = _err(Td, T)
+            if np.max(np.abs(e)) < 1e-11:
+                return q, True
+            q = q + _pinv_step(J, e, redundant=redundant)
+        T = chain.fk(q)
+        return q, bool(np.max(np.abs(_err(Td, T))) < 1e-8)
+
+    T0 = chain.fk(q)
+    err0 = _err(path.pose_at(0.0), T0)
+    if np.linalg.norm(err0[:3]) > pose_tolerance or np.linalg.norm(err0[3:]) > pose_tolerance * 10:
+        ang = math.degrees(np.linalg.norm(err0[3:]))
+        raise InputError("q0 is not at the start of the path: tool is "
+                         f"{np.linalg.norm(err0[:3]) * 1e3:.3g} mm / {ang:.3g}° "
+                         "away; move there first (ratectl.smoothing.move) or pass a matching q0",
+                         argument="q0", value=q0)
+    q, _ = correct(q, path.pose_at(0.0))
+
+    S, Q, D, SIG = [], [], [], []
+    s = 0.0
+    complete, message = True, ""
+    while True:
+        T, J = chain.fk_jacobian(q)
+        sig = np.linalg.svd(J, compute_uv=False)
+        smin = float(sig[-1]) if len(sig) >= min(6, n) else 0.0
+        if smin < sigma_tolerance:
+            complete = False
+            kind = _kind(chain, q)
+            message = (f"{kind + ' ' if kind else ''}singularity (sigma_min = {smin:.2e} < "
+                       f"{sigma_tolerance:.0e}) at s = {s:.6g} m of {L:.6g} m, {(L - s) * 1e3:.3g} mm "
+                       "before the end: the path cannot be followed further")
+            if not S:
+                D.append(np.zeros(n))
+            break
+        dq = _tangent(J, path.twist_at(s), z_of(q), redundant=redundant)
+        S.append(s)
+        Q.append(q.copy())
+        D.append(dq)
+        SIG.append(smin)
+        if s >= L or len(S) >= max_points:
+            if s < L:
+                complete, message = False, f"too many integration points ({max_points}) at s = {s:.6g} m"
+            break
+        h = min(max_step, L - s, max_joint_step / max(float(np.max(np.abs(dq))), 1e-12))
+        ok = False
+        while h > 1e-12:
+            s1 = min(s + h, L)
+            if L - s1 < 1e-12:
+                s1 = L
+            # Heun predictor, then Newton onto the exact pose
+            qp = q + (s1 - s) * dq
+            _, Jp = chain.fk_jacobian(qp)
+            try:
+                dqp = _tangent(Jp, path.twist_at(s1), z_of(qp), redundant=redundant)
+                qn = q + 0.5 * (s1 - s) * (dq + dqp)
+                qn, ok = correct(qn, path.pose_at(s1))
+            except np.linalg.LinAlgError:
+                ok = False
+            if ok and np.max(np.abs(qn - q)) <= 2.5 * max_joint_step + 1e-9:
+                break
+            ok = False
+            h *= 0.5
+        if not ok:
+            complete = False
+            message = (f"cannot follow the path beyond s = {s:.6g} m of {L:.6g} m "
+                       f"(sigma_min = {smin:.2e}): Newton iterations do not converge")
+            break
+        q, s = qn, s1
+    S = np.array(S)
+    Q = np.array(Q).reshape(-1, n)
+    D = np.array(D[: len(S)]).reshape(-1, n)
+    DD = np.zeros_like(D)
+    if len(S) >= 3:
+        DD[1:-1] = (D[2:] - D[:-2]) / (S[2:] - S[:-2])[:, None]
+        DD[0] = (D[1] - D[0]) / (S[1] - S[0])
+        DD[-1] = (D[-1] - D[-2]) / (S[-1] - S[-2])
+    elif len(S) == 2:
+        DD[:] = (D[1] - D[0]) / (S[1] - S[0])
+    return JointPath(S, Q, D, DD, np.array(SIG), complete, message)
+
+
+# ---------------------------------------------------------------------- TOPP
+def _constraints(jp: JointPath, vlim, alim, path_speed, path_acc):
+    """Rows a u + b x ≤ c for every grid point: (N, m) arrays a, b, c, and the velocity bound."""
+    d1, d2 = jp.dq, jp.ddq
+    N = len(jp.s)
+    a = np.concatenate([d1, -d1, np.ones((N, 1)), -np.ones((N, 1))], axis=1)
+    b = np.concatenate([d2, -d2, np.zeros((N, 2))], axis=1)
+    c = np.concatenate([np.broadcast_to(alim, d1.shape), np.broadcast_to(alim, d1.shape),
+                        np.full((N, 2), path_acc)], axis=1)
+    with np.errstate(divide="ignore", over="ignore"):
+        xv = np.min((vlim / np.maximum(np.abs(d1), 1e-300)) ** 2, axis=1)
+    xv = np.minimum(xv, path_speed**2)
+    return a, b, c, xv
+
+
+def _u_bounds(a, b, c, x):
+    """Bounds [u_lo, u_hi] on s̈ at x = ṡ² for rows a u + b x ≤ c (one grid point or many)."""
+    r = c - b * x[..., None]
+    tiny = 1e-12
+    pos, neg = a > tiny, a < -tiny
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = r / a
+    hi = np.min(np.where(pos, q, np.inf), axis=-1)
+    lo = np.max(np.where(neg, q, -np.inf), axis=-1)
+    return lo, hi
+
+
+def _accel_mvc(a, b, c):
+    """Largest x per grid point for which some u satisfies every row."""
+    N, m = a.shape
+    tiny = 1e-12
+    x = np.full(N, np.inf)
+    # rows with a ≈ 0: b x ≤ c
+    zero = np.abs(a) <= tiny
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xz = np.where(zero & (b > 0), c / b, np.inf)
+    x = np.minimum(x, np.min(xz, axis=1))
+    # pairs (j: a_j > 0 upper bound, k: a_k < 0 lower bound):
+    # (c_k − b_k x)/a_k ≤ (c_j − b_j x)/a_j  ⇔  x (b_j/a_j − b_k/a_k) ≤ c_j/a_j − c_k/a_k
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ba = np.where(zero, np.nan, b / a)
+        ca = np.where(zero, np.nan, c / a)
+    pos, neg = a > tiny, a < -tiny
+    coef = ba[:, :, None] - ba[:, None, :]
+    rhs = ca[:, :, None] - ca[:, None, :]
+    valid = pos[:, :, None] & neg[:, None, :] & (coef > 1e-300)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xp = np.where(valid, rhs / np.where(valid, coef, 1.0), np.inf)
+    x = np.minimum(x, np.min(xp.reshape(N, -1), axis=1))
+    return np.maximum(x, 0.0)
+
+
+def _topp(jp: JointPath, vlim, alim, path_speed, path_acc):
+    """Fastest x = ṡ² profile on the grid; both ends are left to the limits (the
+    jerk-limited executor starts and ends at rest by itself)."""
+    a, b, c, xv = _constraints(jp, vlim, alim, path_speed, path_acc)
+    mvc = np.minimum(xv, _accel_mvc(a, b, c))
+    S = jp.s
+    N = len(S)
+    x = np.empty(N)
+    x[0] = mvc[0]  # the jerk-limited executor starts from rest by itself
+    for k in range(N - 1):
+        h = S[k + 1] - S[k]
+        _, hi = _u_bounds(a[k], b[k], c[k], np.array(x[k]))
+        x[k + 1] = min(mvc[k + 1], max(x[k] + 2.0 * h * float(hi), 0.0))
+    for k in range(N - 2, -1, -1):
+        h = S[k + 1] - S[k]
+        lo, _ = _u_bounds(a[k + 1], b[k + 1], c[k + 1], np.array(x[k + 1]))
+        x[k] = min(x[k], max(x[k + 1] - 2.0 * h * float(lo), 0.0))
+    return np.maximum(x, 0.0), mvc
+
+
+# ---------------------------------------------------------------------- plan
+@dataclass(frozen=True)
+class GovernorPlan:
+    """A governed, jerk-limited timing of a path for a control period ``dt``.
+
+    Step k (time ``t[k] = k·dt``) has progress ``s[k]``, ``sd[k]``, ``sdd[k]`` and the
+    planned joint positions ``q[k]`` (on the joint path, fk(q[k]) = P(s[k])).
+    ``qd_ff[k] = (q[k+1] − q[k])/dt`` is the joint velocity that carries the arm from
+    step k to step k+1.
+
+    Attributes:
+        dt: control period [s]; t, s, sd, sdd: (K,) arrays; q: (K, n); qd_ff: (K, n)
+            (the last row is zero).
+        joint_path: the :class:`JointPath` of step 1.
+        x_limit: (N,) admissible ṡ² on the joint-path grid (after margins).
+        nominal_duration: duration of the path's own time law [s].
+        duration: duration of the governed motion [s].
+        velocity_ratio, acceleration_ratio: the largest |q̇_i|/vmax_i and |q̈_i|/amax_i of
+            the planned discrete motion.
+        margins: (velocity, acceleration) fractions finally used.
+        complete: the plan reaches the end of the path; message: why not, if not.
+    """
+
+    dt: float
+    t: np.ndarray
+    s: np.ndarray
+    sd: np.ndarray
+    sdd: np.ndarray
+    q: np.ndarray
+    qd_ff: np.ndarray
+    joint_path: JointPath
+    x_limit: np.ndarray
+    nominal_duration: float
+    duration: float
+    velocity_ratio: float
+    acceleration_ratio: float
+    margins: tuple[float, float]
+    complete: bool
+    message: str = ""
+    info: dict = field(default_factory=dict)
+
+    @property
+    def slowdown(self) -> float:
+        """duration / nominal duration (≥ 1 when the governor had to slow down)."""
+        return self.duration / self.nominal_duration if self.nominal_duration > 0 else 1.0
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+
+class Governor:
+    """Path-speed governor options (see the module docstring for the method).
+
+    Args:
+        velocity_margin: plan joint speeds to this fraction of vmax (room for feedback).
+        acceleration_margin: plan joint accelerations to this fraction of amax.
+        jerk: jerk limit of the progress s⃛ [m/s³] (default: the path's jerk, else
+            20 × its acceleration).
+        lookahead: extra look-ahead time for the velocity cap [s] (default: 2 a/j, the
+            time the jerk-limited progress needs to change its acceleration).
+        max_joint_step: joint-path integration step [rad]; sigma_tolerance: see
+            :func:`joint_path`; nullspace_gain: joint centring for redundant arms [1/m].
+        check_fraction: accept the plan when the planned discrete motion stays below this
+            fraction of every limit; otherwise shrink the margins (``max_iterations``).
+        check_jerk: also require the planned joint jerk to stay below ``check_fraction·jmax``
+            (shrinking the acceleration margin until it does) — used when a jerk-limited
+            smoother executes the plan, so that it can track it without lag.
+    """
+
+    def __init__(self, *, velocity_margin: float = 0.9, acceleration_margin: float = 0.8,
+                 jerk: float | None = None, lookahead: float | None = None, max_joint_step: float = 0.004,
+                 sigma_tolerance: float = 1e-3, nullspace_gain: float = 1.0, check_fraction: float = 0.95,
+                 check_jerk: bool = False, max_iterations: int = 8) -> None:
+        for name, v in (("velocity_margin", velocity_margin), ("acceleration_margin", acceleration_margin),
+                        ("check_fraction", check_fraction)):
+            if not (0.0 < float(v) <= 1.0):
+                raise InputError(f"{name} must be in (0, 1], got {v!r}", argument=name, value=v)
+        self.velocity_margin = float(velocity_margin)
+        self.acceleration_margin = float(acceleration_margin)
+        self.jerk = None if jerk is None else float(jerk)
+        self.lookahead = lookahead
+        self.max_joint_step = float(max_joint_step)
+        self.sigma_tolerance = float(sigma_tolerance)
+        self.nullspace_gain = float(nullspace_gain)
+        self.check_fraction = float(check_fraction)
+        self.check_jerk = bool(check_jerk)
+        self.max_iterations = int(max_iterations)
+
+    def __repr__(self) -> str:
+        return (f"Governor(velocity_margin={self.velocity_margin}, "
+                f"acceleration_margin={self.acceleration_margin})")
+
+    def plan(self, chain, path, q0, *, dt: float) -> GovernorPlan:
+        """Plan the governed motion of ``chain`` along ``path`` from ``q0`` with period ``dt`` [s]."""
+        dt = float(dt)
+        if not (dt > 0.0 and math.isfinite(dt)):
+            raise InputError(f"dt must be a positive period [s], got {dt!r}", argument="dt", value=dt)
+        jp = joint_path(chain, path, q0, max_joint_step=self.max_joint_step,
+                        sigma_tolerance=self.sigma_tolerance, nullspace_gain=self.nullspace_gain)
+        # absent limits (inf) become very large finite ones, so the TOPP rows stay finite
+        vmax = np.where(np.isfinite(chain.vmax), chain.vmax, 1e6)
+        amax = np.where(np.isfinite(chain.amax), chain.amax, 1e8)
+        jmax = np.where(np.isfinite(chain.jmax), chain.jmax, 1e10)
+        jerk = self.jerk or path.jerk or 20.0 * path.acceleration
+        vm, am = self.velocity_margin, self.acceleration_margin
+        best = None
+        for it in range(self.max_iterations):
+            x, mvc = _topp(jp, vm * vmax, am * amax, path.speed, path.acceleration)
+            s, sd, sdd = _track(jp, x, dt=dt, acc=path.acceleration, jerk=jerk, lookahead=self.lookahead)
+            q = jp.interpolate(s)
+            qd = np.zeros_like(q)
+            qd[:-1] = np.diff(q, axis=0) / dt
+            qdd = np.diff(qd, axis=0, prepend=np.zeros((1, q.shape[1]))) / dt
+            with np.errstate(invalid="ignore"):
+                rv = float(np.max(np.abs(qd) / vmax))
+                ra = float(np.max(np.abs(qdd) / amax))
+                rj = float(np.max(np.abs(np.diff(qdd, axis=0)) / dt / jmax)) if self.check_jerk else 0.0
+            best = (x, s, sd, sdd, q, qd, rv, ra, (vm, am), it + 1, jerk, rj)
+            if rv <= self.check_fraction and ra <= self.check_fraction and rj <= self.check_fraction:
+                break
+            if rv > self.check_fraction:
+                vm *= 0.85
+            if ra > self.check_fraction:
+                am *= 0.85
+            if rj > self.check_fraction:
+                jerk *= 0.5
+        x, s, sd, sdd, q, qd, rv, ra, margins, iters, jerk, rj = best
+        t = np.arange(len(s)) * dt
+        complete = jp.complete
+        message = jp.message
+        outside = (jp.q < chain.lower) | (jp.q > chain.upper)
+        if np.any(outside):
+            k, j = np.argwhere(outside)[0]
+            complete = False
+            message = (message + "; " if message else "") + (
+                f"the joint path crosses the position limit of joint {j} ({chain.joint_names[j]}) at "
+                f"s = {jp.s[k]:.4g} m "
+                "(re-timing cannot avoid it; the controller will hold the limit)")
+        if rv > 1.0 or ra > 1.0:
+            message = (message + "; " if message else "") + (
+                f"planned motion exceeds the limits (|q̇|/vmax = {rv:.3f}, |q̈|/amax = {ra:.3f})")
+        return GovernorPlan(dt=dt, t=t, s=s, sd=sd, sdd=sdd, q=q, qd_ff=qd, joint_path=jp, x_limit=x,
+                            nominal_duration=path.duration, duration=float(t[-1]), velocity_ratio=rv,
+                            acceleration_ratio=ra, margins=margins, complete=complete, message=message,
+                            info={"iterations": iters, "jerk": jerk, "grid_points": len(jp.s),
+                                  "jerk_ratio": rj if self.check_jerk else None})
+
+
+def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead):
+    """Jerk-limited progress with 1-D Ruckig, |s̈| ≤ acc, |s⃛| ≤ jerk. Away from the end the
+    velocity interface follows a target speed — the smallest admissible ṡ over a look-ahead
+    window ahead of s, so the progress slows before every dip of the admissible speed;
+    near the end the position interface brings s to the end of the joint path at rest
+    (its velocity limit still capped the same way)."""
+    import ruckig
+
+    S = jp.s
+    end = float(S[-1])
+    sdmax = np.sqrt(np.maximum(x, 0.0))
+    T_look = lookahead if lookahead is not None else 2.0 * acc / jerk
+    otg = ruckig.Ruckig(1, dt)
+    inp = ruckig.InputParameter(1)
+    out = ruckig.OutputParameter(1)
+    inp.control_interface = ruckig.ControlInterface.Velocity
+    inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [0.0], [0.0]
+    inp.target_position, inp.target_velocity, inp.target_acceleration = [end], [0.0], [0.0]
+    inp.max_acceleration, inp.max_jerk = [acc], [jerk]
+    vfloor = 1e-7
+    s_list, sd_list, sdd_list = [0.0], [0.0], [0.0]
+    s, sd, sdd = 0.0, 0.0, 0.0
+    final = False
+    limit = int(50.0 * 3600 / dt)  # hard stop (50 h) against a stuck profile
+    for _ in range(limit):
+        window = sd * (T_look + dt) + 0.5 * max(sdd, 0.0) * T_look**2 + 1e-9
+        i0 = max(int(np.searchsorted(S, s, side="right")) - 1, 0)
+        i1 = int(np.searchsorted(S, s + window, side="right"))
+        # min of the (piecewise-linear) admissible speed over [s, s + window]
+        cap = min(float(np.interp(s, S, sdmax)), float(np.interp(min(s + window, end), S, sdmax)))
+        if i1 > i0 + 1:
+            cap = min(cap, float(np.min(sdmax[i0 + 1:i1])))
+        cap = max(cap, vfloor)
+        if not final:
+            brake = sd * sd / (2.0 * acc) + sd * (acc / jerk + 2.0 * dt) + 0.5 * abs(sdd) ** 3 / (acc * jerk)
+            if end - s <= 1.5 * brake + 1e-9:
+                final = True
+                inp.control_interface = ruckig.ControlInterface.Position
+                inp.target_velocity = [0.0]
+        if final:
+            inp.max_velocity = [cap]
+        else:
+            inp.target_velocity = [cap]
+        res = otg.update(inp, out)
+        if res not in (ruckig.Result.Working, ruckig.Result.Finished):
+            raise InputError(f"the progress generator failed (Ruckig {res}); check the path limits",
+                             argument="path", value=None)
+        out.pass_to_input(inp)
+        s = min(float(out.new_position[0]), end)
+        sd = float(out.new_velocity[0])
+        sdd = float(out.new_acceleration[0])
+        s_list.append(s)
+        sd_list.append(sd)
+        sdd_list.append(sdd)
+        if final and (res == ruckig.Result.Finished or (end - s < 1e-12 and abs(sd) < 1e-12)):
+            break
+    s_arr = np.array(s_list)
+    s_arr[-1] = end
+    sd_arr = np.array(sd_list)
+    sd_arr[-1] = 0.0
+    sdd_arr = np.array(sdd_list)
+    sdd_arr[-1] = 0.0
+    return s_arr, sd_arr, sdd_arr
+
+
+def plan(chain, path, q0, *, dt: float, **options) -> GovernorPlan:
+    """Shorthand for ``Governor(**options).plan(chain, path, q0, dt=dt)``."""
+    return Governor(**options).plan(chain, path, q0, dt=dt)

@@ -1,0 +1,220 @@
+"""The resolved-rate controller: control law, statuses, limits, safe halts."""
+
+import math
+
+import numpy as np
+import pytest
+
+import ratectl as rc
+from ratectl.controller import STATUSES, Command
+from ratectl.errors import InputError
+
+Q_REG = np.array([0.0, -1.2, 1.4, -1.8, 0.9, 0.3])   # a regular UR5e configuration
+Q_WRIST = np.array([0.0, -1.2, 1.4, -1.8, 0.0, 0.3])  # q5 = 0: wrist singular
+
+
+@pytest.fixture
+def ur5e():
+    return rc.robots.ur5e()
+
+
+def _shifted(T, dp):
+    T = T.copy()
+    T[:3, 3] += dp
+    return T
+
+
+def test_converges_to_a_target_and_reports_it(ur5e):
+    ctrl = rc.ResolvedRateController(ur5e, gain=20.0)
+    target = _shifted(ur5e.fk(Q_REG), [0.02, -0.01, 0.015])
+    target[:3, :3] = target[:3, :3] @ rc.spatial.rotz(0.05)
+    q = Q_REG.copy()
+    for _ in range(2000):
+        cmd = ctrl.step(q, target=target, dt=1e-3)
+        assert isinstance(cmd, Command) and cmd.status in STATUSES
+        assert np.allclose(cmd.q_next, q + cmd.qd * 1e-3)
+        if cmd.status == "target-reached":
+            break
+        q = cmd.q_next
+    assert cmd.status == "target-reached"
+    e = rc.spatial.pose_error(target, ur5e.fk(q))
+    assert np.linalg.norm(e[:3]) < 1e-4 and np.linalg.norm(e[3:]) < 1e-3
+    assert cmd.position_error == pytest.approx(np.linalg.norm(e[:3]), abs=1e-9)
+    with pytest.raises(AttributeError):  # frozen
+        cmd.status = "regular"
+
+
+def test_control_law_feed_forward_plus_feedback(ur5e):
+    """ξ = ξ_ff + K e, resolved exactly in a regular configuration."""
+    K = np.array([5.0, 5.0, 5.0, 2.0, 2.0, 2.0])
+    ctrl = rc.ResolvedRateController(ur5e, gain=K, solver=rc.solvers.Inverse(), limits=None)
+    T = ur5e.fk(Q_REG)
+    target = _shifted(T, [0.001, 0.0, -0.002])
+    xi_ff = np.array([0.01, 0.02, -0.01, 0.0, 0.05, 0.0])
+    cmd = ctrl.step(Q_REG, target=target, twist=xi_ff, dt=1e-3)
+    e = rc.spatial.pose_error(target, T)
+    assert np.allclose(cmd.error, e) and np.allclose(cmd.twist, xi_ff + K * e)
+    J = ur5e.jacobian(Q_REG)
+    assert np.allclose(J @ cmd.qd, xi_ff + K * e, atol=1e-10)
+    assert cmd.status == "regular" and cmd.reason == ""
+    # joint feed-forward adds to the resolved rate
+    ctrl.reset()
+    qd_ff = np.full(6, 0.01)
+    cmd2 = ctrl.step(Q_REG, target=target, twist=xi_ff, qd_ff=qd_ff, dt=1e-3)
+    assert np.allclose(cmd2.qd, cmd.qd + qd_ff)
+
+
+def test_damped_near_the_wrist_singularity_names_the_kind(ur5e):
+    ctrl = rc.ResolvedRateController(ur5e)
+    q = Q_WRIST.copy()
+    q[4] = 1e-3
+    cmd = ctrl.step(q, twist=np.array([0.0, 0.05, 0.0, 0.0, 0.0, 0.0]), dt=1e-3)
+    assert cmd.status == "damped" and cmd.damping > 0 and cmd.sigma_min < 0.05
+    assert np.linalg.norm(cmd.task_error) > 0  # damping gave up some task velocity
+    assert cmd.kind == "wrist"
+    assert "wrist" in str(cmd)
+    assert np.all(np.abs(cmd.qd) <= ur5e.vmax * (1 + 1e-12))
+
+
+def test_exact_inverse_at_a_singularity_halts_instead_of_raising(ur5e):
+    ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.Inverse())
+    for _ in range(100):
+        cmd = ctrl.step(Q_REG, twist=np.array([0.05, 0, 0, 0, 0, 0]), dt=1e-3)
+    assert cmd.status == "regular"
+    cmd = ctrl.step(Q_WRIST, twist=np.array([0.05, 0, 0, 0, 0, 0]), dt=1e-3)
+    assert cmd.status == "singular" and "singular" in cmd.reason
+    assert np.all(np.abs(cmd.qd) <= np.abs(ctrl.qd) + 1e-12)  # decelerating, not blowing up
+    # close to (not at) the singularity the exact inverse needs more than vmax: reported
+    ctrl.reset()
+    q = Q_WRIST.copy()
+    q[4] = 2e-3
+    cmd = ctrl.step(q, twist=np.array([0.0, 0.1, 0.0, 0.0, 0.0, 0.0]), dt=1e-3)
+    assert cmd.status == "singular" and cmd.velocity_scale < 0.2
+    assert np.all(np.abs(cmd.qd) <= ur5e.vmax * (1 + 1e-12))
+
+
+def test_velocity_scaling_keeps_the_direction(ur5e):
+    ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.Inverse(), limits=None)
+    xi = np.array([2.0, 0.0, 0.5, 0.0, 0.0, 1.0])  # far too fast for the arm
+    raw = ctrl.step(Q_REG, twist=xi, dt=1e-3).qd
+    lim = rc.ResolvedRateController(ur5e, solver=rc.solvers.Inverse())
+    lim.reset(qd=raw / np.max(np.abs(raw) / ur5e.vmax))  # already at that velocity: no acceleration limit
+    cmd = lim.step(Q_REG, twist=xi, dt=1e-3)
+    assert cmd.status == "velocity-scaled" and "velocity" in cmd.limits_active
+    assert np.max(np.abs(cmd.qd) / ur5e.vmax) == pytest.approx(1.0)
+    assert np.allclose(cmd.qd / np.linalg.norm(cmd.qd), raw / np.linalg.norm(raw))
+    assert cmd.velocity_scale == pytest.approx(1.0 / np.max(np.abs(raw) / ur5e.vmax))
+
+
+def test_acceleration_limit_and_previous_velocity(ur5e):
+    ctrl = rc.ResolvedRateController(ur5e)
+    dt = 1e-3
+    xi = np.array([0.3, 0.0, 0.0, 0.0, 0.0, 0.0])
+    q = Q_REG.copy()
+    prev = np.zeros(6)
+    saw = False
+    for _ in range(300):
+        cmd = ctrl.step(q, twist=xi, dt=dt)
+        assert np.all(np.abs(cmd.qd - prev) <= ur5e.amax * dt * (1 + 1e-9))
+        saw |= cmd.status == "acceleration-limited"
+        prev = cmd.qd
+        q_used, q = q, cmd.q_next
+    assert saw
+    assert np.allclose(ur5e.jacobian(q_used) @ cmd.qd, xi, atol=1e-6)  # has caught up
+    ctrl.reset()
+    assert np.all(ctrl.qd == 0)
+
+
+def test_joint_position_limit_holds(ur5e):
+    """Drive the elbow (±π limit) outwards: it stops at the limit, status joint-limit."""
+    ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.DLS(damping=0.01))
+    q = Q_REG.copy()
+    q[2] = math.pi - 0.05
+    seen = False
+    for _ in range(400):
+        J = ur5e.jacobian(q)
+        xi = J @ np.array([0, 0, 1.0, 0, 0, 0])  # the twist that the elbow alone would make
+        cmd = ctrl.step(q, twist=xi, dt=2e-3)
+        seen |= cmd.status == "joint-limit"
+        q = cmd.q_next
+        assert q[2] <= ur5e.upper[2] + 1e-12
+    assert seen and "position" in cmd.limits_active
+    assert q[2] > math.pi - 1e-3
+
+
+def test_non_finite_input_halts_safely_and_latches(ur5e):
+    ctrl = rc.ResolvedRateController(ur5e)
+    dt = 2e-3
+    q = Q_REG.copy()
+    for _ in range(200):  # get moving
+        cmd = ctrl.step(q, twist=np.array([0.2, 0, 0, 0, 0, 0]), dt=dt)
+        q = cmd.q_next
+    v0 = np.abs(cmd.qd).max()
+    assert v0 > 0.1
+    bad = q.copy()
+    bad[1] = np.nan
+    prev = cmd.qd
+    cmd = ctrl.step(bad, twist=np.array([0.2, 0, 0, 0, 0, 0]), dt=dt)
+    assert cmd.status == "halted" and "non-finite q" in cmd.reason and ctrl.halted
+    assert np.all(np.isfinite(cmd.q_next)) and np.all(np.isfinite(cmd.qd))
+    steps = 0
+    while np.abs(cmd.qd).max() > 0:
+        assert np.all(np.abs(cmd.qd - prev) <= ur5e.amax * dt * (1 + 1e-9))  # within amax
+        assert np.all(np.sign(cmd.qd) * np.sign(prev) >= 0)  # no reversal
+        prev = cmd.qd
+        cmd = ctrl.step(cmd.q_next, twist=np.array([0.2, 0, 0, 0, 0, 0]), dt=dt)  # good input again
+        assert cmd.status == "halted"  # latched
+        steps += 1
+        assert steps < 1000
+    ctrl.reset()
+    assert not ctrl.halted
+    assert ctrl.step(q, twist=np.zeros(6), dt=dt).status != "halted"
+    for kw in ({"target": np.full((4, 4), np.inf)}, {"twist": np.array([0, 0, np.nan, 0, 0, 0])}):
+        ctrl.reset()
+        assert ctrl.step(q, dt=dt, **kw).status == "halted"
+    ctrl.reset()
+    assert ctrl.step(q, twist=np.zeros(6), dt=float("nan")).status == "halted"
+
+
+def test_stale_target_halts_and_resumes(ur5e):
+    ctrl = rc.ResolvedRateController(ur5e, timeout=0.05)
+    T = ur5e.fk(Q_REG)
+    q = Q_REG.copy()
+    cmd = ctrl.step(q, target=T, stamp=0.0, dt=0.01)
+    assert cmd.status != "halted"
+    for _ in range(6):
+        cmd = ctrl.step(q, target=T, stamp=0.0, dt=0.01)
+    assert cmd.status == "halted" and "stale" in cmd.reason and not ctrl.halted
+    cmd = ctrl.step(q, target=T, stamp=ctrl.time, dt=0.01)
+    assert cmd.status != "halted"
+
+
+def test_smoothing_respects_jerk_limits(ur5e):
+    ctrl = rc.ResolvedRateController(ur5e, smoothing=True)
+    dt = 1e-3
+    q = Q_REG.copy()
+    prev_a = np.zeros(6)
+    for k in range(400):
+        xi = np.array([0.2 if k < 200 else -0.2, 0, 0.1, 0, 0, 0])
+        cmd = ctrl.step(q, twist=xi, dt=dt)
+        assert np.all(np.abs(cmd.qd) <= ur5e.vmax + 1e-9)
+        assert np.all(np.abs(cmd.qdd) <= ur5e.amax + 1e-9)
+        assert np.all(np.abs(cmd.qdd - prev_a) <= ur5e.jmax * dt * (1 + 1e-6))
+        prev_a = cmd.qdd
+        q = cmd.q_next
+
+
+def test_input_shape_errors_raise(ur5e):
+    ctrl = rc.ResolvedRateController(ur5e)
+    with pytest.raises(InputError, match="shape"):
+        ctrl.step(np.zeros(5), dt=1e-3)
+    with pytest.raises(InputError, match="4x4"):
+        ctrl.step(Q_REG, target=np.eye(3), dt=1e-3)
+    with pytest.raises(InputError, match="twist"):
+        ctrl.step(Q_REG, twist=np.zeros(3), dt=1e-3)
+    with pytest.raises(InputError, match="gain"):
+        rc.ResolvedRateController(ur5e, gain=-1.0)
+    with pytest.raises(InputError, match="solver"):
+        rc.ResolvedRateController(ur5e, solver=object())
+    with pytest.raises(InputError, match="limits"):
+        rc.ResolvedRateController(ur5e, limits="robot")

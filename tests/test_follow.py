@@ -1,0 +1,275 @@
+"""Path following through singular neighbourhoods: governor, time law, exact inverse, other arms.
+
+The UR5e line (DESIGN/issue acceptance): constant orientation, 0.2 m/s, passing the
+wrist singularity (q5 = 0) at a closest approach of |q5| = 0.01 rad, where the exact
+inverse would need ~20 rad/s (vmax = π rad/s).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import ratectl as rc
+from ratectl.errors import InputError
+from ratectl.governor import joint_path
+
+DT = 2e-3
+Q_CLOSEST = np.array([0.0, -2.0, -1.6, -1.2, 0.01, 0.0])  # q5 = 0.01 at the closest approach
+DIRECTION = np.array([math.cos(math.radians(30)), math.sin(math.radians(30)), 0.0])
+HALF = 0.15  # m on each side of the closest approach
+
+
+def wrist_line(arm):
+    """The line through the tool pose of Q_CLOSEST (constant orientation) and its start q."""
+    T0 = arm.fk(Q_CLOSEST)
+    Ta, Tb = T0.copy(), T0.copy()
+    Ta[:3, 3] -= HALF * DIRECTION
+    Tb[:3, 3] += HALF * DIRECTION
+    # the start configuration on the same branch: integrate back from Q_CLOSEST
+    back = joint_path(arm, rc.paths.Line(T0, Ta, speed=0.2, acceleration=1.0), Q_CLOSEST)
+    assert back.complete
+    return rc.paths.Line(Ta, Tb, speed=0.2, acceleration=1.0), back.q[-1]
+
+
+@pytest.fixture(scope="module")
+def ur5e():
+    return rc.robots.ur5e()
+
+
+@pytest.fixture(scope="module")
+def scenario(ur5e):
+    return wrist_line(ur5e)
+
+
+@pytest.fixture(scope="module")
+def governed(ur5e, scenario):
+    line, q0 = scenario
+    return rc.follow(ur5e, line, q0, dt=DT)
+
+
+def test_scenario_passes_close_to_the_wrist_singularity(ur5e, scenario):
+    line, q0 = scenario
+    jp = joint_path(ur5e, line, q0)
+    assert jp.complete
+    q5 = np.abs(jp.q[:, 4])
+    assert 0.0095 < q5.min() < 0.0105  # the closest approach is the intended 0.01 rad
+    assert 0.4 * line.length < jp.s[np.argmin(q5)] < 0.6 * line.length
+    need = np.max(np.abs(jp.dq), axis=0) * line.speed  # exact-inverse joint speeds at 0.2 m/s
+    assert 15.0 < need.max() < 25.0 and need.max() > 5 * ur5e.vmax.max()
+
+
+def test_governor_completes_within_limits_and_on_the_line(ur5e, governed):
+    run = governed
+    assert run.completed, run.message
+    assert np.all(np.isfinite(run.qd))
+    assert np.all(np.abs(run.qd) <= ur5e.vmax * (1 + 1e-9))
+    assert np.all(np.abs(run.qdd) <= ur5e.amax * (1 + 1e-9))
+    # q̈ is the difference of q̇ (not just a reported number)
+    assert np.allclose(run.qdd[1:-1], np.diff(run.qd, axis=0)[:-1] / DT, atol=1e-6)
+    assert run.max_position_error < 1e-3
+    assert run.max_orientation_error < math.radians(0.5)
+    # the recorded path error is the distance from the line (checked independently here)
+    line = rc.paths.Line(run.poses[0], run.poses[-1], speed=1, acceleration=1)
+    p = run.poses[:, :3, 3]
+    d = line.end[:3, 3] - line.start[:3, 3]
+    off = (p - line.start[:3, 3]) - np.outer((p - line.start[:3, 3]) @ d / (d @ d), d)
+    assert np.max(np.linalg.norm(off, axis=1)) < 1e-3
+    assert run.statuses[0] in rc.controller.STATUSES
+
+
+def test_governor_final_pose_and_timing(ur5e, scenario, governed):
+    line, _ = scenario
+    run = governed
+    e = rc.spatial.pose_error(line.end, ur5e.fk(run.q[-1]))
+    assert np.linalg.norm(e[:3]) < 1e-4 and math.degrees(np.linalg.norm(e[3:])) < 0.01
+    # it took longer than the nominal time law, and says so
+    assert run.nominal_duration == pytest.approx(line.duration)
+    assert run.duration > run.nominal_duration + 0.2
+    assert run.extra_time == pytest.approx(run.duration - run.nominal_duration)
+    assert "nominal" in run.message and f"{run.nominal_duration:.3f}" in run.message
+    # it slowed down where the wrist is near-singular: the slowest progress is there
+    plan = run.info["plan"]
+    mid = plan.s[np.argmin(np.where(plan.t > 0.3, plan.sd, np.inf)[: len(plan.t) - 50])]
+    assert abs(mid - line.length / 2) < 0.03
+    assert min(run.sigma_min) < 0.005  # and passed close to the singularity
+    assert "wrist" in set(run.kinds)  # the feedback solver reports its damping near the wrist
+
+
+def test_time_law_with_adaptive_dls_completes_with_bounded_velocity(ur5e, scenario, governed):
+    line, q0 = scenario
+    ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.AdaptiveDLS())
+    run = rc.follow(ur5e, line, q0, dt=DT, controller=ctrl, governor=False)
+    assert run.completed, run.message
+    assert np.all(np.abs(run.qd) <= ur5e.vmax * (1 + 1e-9))
+    assert np.all(np.abs(run.qdd) <= ur5e.amax * (1 + 1e-9))
+    assert "damped" in run.statuses and "wrist" in set(run.kinds)
+    # the price of keeping to the schedule: the tool leaves the line (millimetres), reported
+    assert 1e-3 < run.max_position_error < 2e-2
+    assert run.max_position_error > 100 * governed.max_position_error
+    assert len(run.position_error) == run.steps
+
+
+def test_exact_inverse_reports_the_singularity_instead_of_blowing_up(ur5e, scenario):
+    line, q0 = scenario
+    ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.Inverse())
+    run = rc.follow(ur5e, line, q0, dt=DT, controller=ctrl, governor=False)
+    assert "singular" in run.statuses
+    assert "wrist" in {k for k, s in zip(run.kinds, run.statuses, strict=True) if s == "singular"}
+    assert np.all(np.isfinite(run.q))
+    assert np.all(np.abs(run.qd) <= ur5e.vmax * (1 + 1e-9))  # not the ~20 rad/s it asked for
+    assert run.max_position_error > 5e-3  # and the path error that costs is on record
+
+
+def _elbow_line(arm):
+    q_end = np.array([0.3, -0.8, 0.0, -0.8, 1.4, 0.2])  # elbow straight: full reach
+    T_end = arm.fk(q_end)
+    shoulder = arm.frames(q_end)[1][:3, 3]
+    d = T_end[:3, 3] - shoulder
+    d /= np.linalg.norm(d)
+    T_start = T_end.copy()
+    T_start[:3, 3] -= 0.1 * d
+    from ratectl.follow import _ik
+
+    q_start, ep, _ = _ik(arm, T_start, np.array([0.27, -1.28, 1.0, -1.33, 1.4, 0.23]))
+    assert ep < 1e-9
+    return rc.paths.Line(T_start, T_end, speed=0.2, acceleration=1.0), q_start
+
+
+def test_elbow_boundary_is_reported_and_handled(ur5e):
+    line, q0 = _elbow_line(ur5e)
+    run = rc.follow(ur5e, line, q0, dt=DT)
+    assert not run.completed
+    assert "elbow" in run.message or "boundary" in run.message
+    assert "singular" in run.message
+    assert np.all(np.isfinite(run.q)) and np.all(np.isfinite(run.qd))
+    assert np.all(np.abs(run.qd) <= ur5e.vmax * (1 + 1e-9))
+    assert np.all(np.abs(run.qdd) <= ur5e.amax * (1 + 1e-9))
+    assert run.max_position_error < 1e-4  # stayed on the line
+    assert np.linalg.norm(run.poses[-1][:3, 3] - line.end[:3, 3]) < 1e-3  # stopped at the boundary
+    assert np.max(np.abs(run.qd[-1])) < 1e-3  # (practically) at rest
+    assert min(run.sigma_min) < 0.01
+    # the time law (no governor) runs into the boundary too: bounded, reported, no blow-up
+    run2 = rc.follow(ur5e, line, q0, dt=DT, governor=False)
+    assert np.all(np.isfinite(run2.q))
+    assert np.all(np.abs(run2.qd) <= ur5e.vmax * (1 + 1e-9))
+    kinds = {k for k in run2.kinds if k}
+    assert kinds & {"elbow", "boundary"}
+
+
+def _within(arm, q):
+    return bool(np.all((q >= arm.lower - 1e-12) & (q <= arm.upper + 1e-12)))
+
+
+def test_panda_circle_with_qp_and_joint_limits():
+    arm = rc.robots.panda()
+    q0 = np.array([0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.8])
+    T0 = arm.fk(q0)
+    circle = rc.paths.Arc(T0, centre=T0[:3, 3] + [0.0, 0.08, 0.0], axis=[1, 0, 0], angle=2 * math.pi,
+                          speed=0.15, acceleration=0.8)
+    ctrl = rc.ResolvedRateController(arm, solver=rc.solvers.QP(), limits=arm)
+    run = rc.follow(arm, circle, q0, dt=DT, controller=ctrl)
+    assert run.completed, run.message
+    assert _within(arm, run.q)
+    assert np.all(np.abs(run.qd) <= arm.vmax * (1 + 1e-9))
+    assert np.all(np.abs(run.qdd) <= arm.amax * (1 + 1e-9))
+    assert run.max_position_error < 1e-4 and run.max_orientation_error < 1e-3
+    assert np.linalg.norm(run.poses[-1][:3, 3] - T0[:3, 3]) < 1e-4  # a closed circle
+
+
+def test_iiwa_waypoints_with_joint_limits():
+    arm = rc.robots.iiwa7()
+    q0 = np.array([0.0, 0.6, 0.0, -1.2, 0.0, 0.9, 0.0])
+    T0 = arm.fk(q0)
+    poses = [T0]
+    for dp in ([0.1, 0, 0], [0.1, 0.1, -0.05], [0, 0.1, 0.05]):
+        T = T0.copy()
+        T[:3, 3] += dp
+        poses.append(T)
+    poses[2][:3, :3] = poses[2][:3, :3] @ rc.spatial.rotz(0.4)
+    path = rc.paths.Waypoints(poses, blend=0.03, speed=0.15, acceleration=0.8)
+    run = rc.follow(arm, path, q0, dt=DT)
+    assert run.completed, run.message
+    assert _within(arm, run.q)
+    assert np.all(np.abs(run.qd) <= arm.vmax * (1 + 1e-9))
+    assert np.all(np.abs(run.qdd) <= arm.amax * (1 + 1e-9))
+    assert run.max_position_error < 1e-4 and run.max_orientation_error < 1e-3
+    for T in poses:  # passes through every waypoint
+        assert np.min(np.linalg.norm(run.poses[:, :3, 3] - T[:3, 3], axis=1)) < 1e-3
+
+
+def test_joint_limit_on_a_path_is_held_and_reported():
+    """A Panda rotation about the flange axis that needs joint 7 beyond its limit (2.8973 rad):
+    the controller holds the limit, reports it, and the orientation error is on record."""
+    arm = rc.robots.panda()
+    q0 = np.array([0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 2.6])
+    T0 = arm.fk(q0)
+    T1 = T0.copy()
+    T1[:3, :3] = T0[:3, :3] @ rc.spatial.rotz(0.8)
+    path = rc.paths.Line(T0, T1, speed=0.15, acceleration=0.8)
+    run = rc.follow(arm, path, q0, dt=DT, governor=False)
+    assert _within(arm, run.q)
+    assert "joint-limit" in run.statuses
+    assert run.q[-1, 6] == pytest.approx(arm.upper[6], abs=1e-3)
+    assert np.all(np.abs(run.qd) <= arm.vmax * (1 + 1e-9))
+    assert np.all(np.abs(run.qdd) <= arm.amax * (1 + 1e-6))
+    assert not run.completed and run.max_orientation_error > math.radians(10)
+    # the governor sees it coming and says so
+    plan = rc.governor.plan(arm, path, q0, dt=DT)
+    assert not plan.complete and "position limit of joint 6" in plan.message
+
+
+def test_approach_move_to_the_path_start(ur5e, scenario):
+    line, q0 = scenario
+    q_off = q0 + np.array([0.05, -0.04, 0.03, 0.02, 0.0, -0.05])
+    run = rc.follow(ur5e, line, q_off, dt=DT, settle=0.2)
+    approach = run.info["approach"]
+    assert approach.source == "approach" and approach.duration > 0
+    assert np.allclose(approach.q[0], q_off)
+    assert np.all(np.abs(approach.qd) <= ur5e.vmax * (1 + 1e-9))
+    assert np.allclose(ur5e.fk(approach.q[-1]), line.start, atol=1e-9)
+    assert run.completed
+    with pytest.raises(InputError, match="start of the path"):
+        rc.follow(ur5e, line, q_off, dt=DT, approach=False)
+
+
+def test_execution_record_and_plot(governed, tmp_path):
+    run = governed
+    K = run.steps
+    assert run.t.shape == (K,) and run.q.shape == (K, 6) and run.qd.shape == (K, 6)
+    assert run.poses.shape == (K, 4, 4) and len(run.statuses) == K and run.sigma_min.shape == (K,)
+    assert np.allclose(np.diff(run.t), DT)
+    assert "completed" in run.summary()
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    fig = run.plot(file=tmp_path / "run.png")
+    assert (tmp_path / "run.png").stat().st_size > 10_000
+    assert len(fig.axes) >= 3
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_follow_input_errors(ur5e, scenario):
+    line, q0 = scenario
+    with pytest.raises(InputError, match="dt"):
+        rc.follow(ur5e, line, q0, dt=0.0)
+    with pytest.raises(InputError, match="Path"):
+        rc.follow(ur5e, "line", q0, dt=DT)
+    with pytest.raises(InputError):
+        rc.follow(ur5e, line, q0[:5], dt=DT)
+
+
+def test_chain_without_limits():
+    """Absent limits (inf) must not break the governor, the controller or the record."""
+    rows = [rc.DH(a=r.a, alpha=r.alpha, d=r.d) for r in rc.robots.ur5e().table]
+    arm = rc.Chain.from_dh(rows, name="UR5e without limits")
+    q0 = np.array([0.0, -1.2, 1.4, -1.8, 0.9, 0.3])
+    T0 = arm.fk(q0)
+    T1 = T0.copy()
+    T1[0, 3] += 0.1
+    line = rc.paths.Line(T0, T1, speed=0.2, acceleration=1.0)
+    for governor in (True, False):
+        run = rc.follow(arm, line, q0, dt=DT, governor=governor)
+        assert run.completed, run.message
+        assert run.max_position_error < 1e-3

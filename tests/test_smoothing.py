@@ -1,0 +1,117 @@
+"""Ruckig smoothing: the online velocity filter, state-to-state moves, stops, and the smoothed
+path example (UR5e line past the wrist singularity)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import ratectl as rc
+from ratectl.errors import InputError
+from ratectl.governor import joint_path
+from ratectl.smoothing import VelocityFilter, move, stop
+
+
+def _check_limits(qd, qdd, dt, vmax, amax, jmax, *, rel=1e-6):
+    assert np.all(np.abs(qd) <= vmax * (1 + rel) + 1e-12)
+    assert np.all(np.abs(qdd) <= amax * (1 + rel) + 1e-12)
+    jerk = np.diff(qdd, axis=0) / dt
+    assert np.all(np.abs(jerk) <= jmax * (1 + rel) + 1e-9)
+
+
+def test_velocity_filter_respects_limits_on_random_targets():
+    rng = np.random.default_rng(7)
+    vmax, amax, jmax = np.array([1.0, 2.0, 0.5]), np.array([5.0, 3.0, 2.0]), np.array([50.0, 20.0, 40.0])
+    dt = 1e-3
+    f = VelocityFilter(3, dt=dt, vmax=vmax, amax=amax, jmax=jmax)
+    q = np.zeros(3)
+    QD, QDD = [], []
+    target = np.zeros(3)
+    for k in range(3000):
+        if k % 1000 == 0:
+            target = rng.uniform(-2, 2, 3)  # some beyond vmax: clipped
+        q_next, qd, qdd = f.update(q, target)
+        # the position is the integral of the velocity (trapezoid is exact to O(j dt³))
+        assert np.allclose(q_next - q, dt * 0.5 * (qd + (QD[-1] if QD else 0)), atol=1e-6)
+        q = q_next
+        QD.append(qd)
+        QDD.append(qdd)
+    QD, QDD = np.array(QD), np.array(QDD)
+    _check_limits(QD, QDD, dt, vmax, amax, jmax)
+    # it gets there: after a hold the velocity equals the (clipped) target
+    assert np.allclose(QD[-1], np.clip(target, -vmax, vmax), atol=1e-9)
+    # only the velocity interface, never intermediate waypoints
+    assert not f._inp.intermediate_positions
+    f.reset()
+    assert np.all(f.velocity == 0) and np.all(f.acceleration == 0)
+
+
+def test_velocity_filter_tracks_a_feasible_reference_with_acceleration_feed_forward():
+    dt = 1e-3
+    f = VelocityFilter(1, dt=dt, vmax=10.0, amax=10.0, jmax=100.0)
+    t = np.arange(0, 2, dt)
+    v = np.sin(2 * t)  # |a| ≤ 2, |j| ≤ 4: feasible
+    a = 2 * np.cos(2 * t)
+    f.reset(qd=[v[0]], qdd=[a[0]])
+    err = []
+    q = np.zeros(1)
+    for k in range(1, len(t)):
+        q, qd, _ = f.update(q, [v[k]], [a[k]])
+        err.append(abs(qd[0] - v[k]))
+    assert max(err) < 1e-6
+    with pytest.raises(InputError, match="vmax"):
+        VelocityFilter(2, dt=dt, vmax=[1.0, math.inf], amax=1.0, jmax=1.0)
+
+
+def test_move_is_synchronised_and_within_limits():
+    arm = rc.robots.ur5e()
+    q0 = np.array([0.0, -1.2, 1.4, -1.8, 0.9, 0.3])
+    q1 = q0 + np.array([0.8, -0.3, 0.2, 0.5, -0.4, 1.5])
+    traj = move(q0, q1, vmax=arm.vmax, amax=arm.amax, jmax=arm.jmax)
+    dt = 1e-3
+    t, q, qd, qdd = traj.sample(dt)
+    assert np.allclose(q[0], q0) and np.allclose(q[-1], q1, atol=1e-9)
+    assert np.allclose(qd[-1], 0, atol=1e-9) and np.allclose(qdd[-1], 0, atol=1e-9)
+    _check_limits(qd, qdd[:-1], dt, arm.vmax, arm.amax, arm.jmax, rel=1e-3)
+    # synchronised: every joint is still moving until near the end
+    moving = np.abs(qd[int(0.9 * len(t))]) > 1e-6
+    assert np.all(moving)
+    # from a moving start
+    traj2 = move(q0, q1, vmax=arm.vmax, amax=arm.amax, jmax=arm.jmax, qd_start=np.full(6, 0.5))
+    assert np.allclose(traj2.at(0)[1], 0.5) and np.allclose(traj2.at(traj2.duration)[0], q1, atol=1e-9)
+    with pytest.raises(InputError):
+        move(q0, q1[:5], vmax=arm.vmax, amax=arm.amax, jmax=arm.jmax)
+
+
+def test_stop_comes_to_rest_within_limits():
+    arm = rc.robots.ur5e()
+    q = np.zeros(6)
+    qd = np.array([1.0, -2.0, 0.5, 3.0, 0.0, -1.0])
+    traj = stop(q, qd, amax=arm.amax, jmax=arm.jmax)
+    t, Q, QD, QDD = traj.sample(1e-3)
+    assert np.allclose(QD[0], qd) and np.allclose(QD[-1], 0, atol=1e-9)
+    assert np.all(np.abs(QDD) <= arm.amax * (1 + 1e-6))
+    # shortest possible: the fastest joint needs at least |v|/a + a/j
+    assert traj.duration >= 3.0 / 10.0
+
+
+def test_smoothed_line_near_the_wrist_singularity():
+    """The acceptance line (see test_follow.py) with a Ruckig-smoothed controller: jerk limits
+    respected, the tool within 2 mm of the line."""
+    arm = rc.robots.ur5e()
+    q_c = np.array([0.0, -2.0, -1.6, -1.2, 0.01, 0.0])
+    d = np.array([math.cos(math.radians(30)), math.sin(math.radians(30)), 0.0])
+    T0 = arm.fk(q_c)
+    Ta, Tb = T0.copy(), T0.copy()
+    Ta[:3, 3] -= 0.15 * d
+    Tb[:3, 3] += 0.15 * d
+    q0 = joint_path(arm, rc.paths.Line(T0, Ta, speed=0.2, acceleration=1.0), q_c).q[-1]
+    line = rc.paths.Line(Ta, Tb, speed=0.2, acceleration=1.0)
+    dt = 2e-3
+    ctrl = rc.ResolvedRateController(arm, smoothing=True)
+    run = rc.follow(arm, line, q0, dt=dt, controller=ctrl)
+    assert run.completed, run.message
+    _check_limits(run.qd, run.qdd, dt, arm.vmax, arm.amax, arm.jmax)
+    assert run.max_position_error < 2e-3
+    assert run.max_orientation_error < math.radians(0.5)
+    assert run.info["plan"].info["jerk_ratio"] <= 0.95  # the plan itself was made jerk-feasible
