@@ -83,15 +83,22 @@ def main(argv=None) -> int:
 
     row("fk + J + QP vel+pos limits, none binding (osqp)", step(qp, xi, **kw), qp_check)
 
+    qp_osqp = S.QP(damping=lam, shortcut=False)
+
     def qp_active_check():
         r = qp.solve(J, xi_fast, **kw)
-        assert r.info["status"] == "solved" and "velocity" in r.limits_active, r.info
+        assert r.info["status"] == "active-set" and "velocity" in r.limits_active, r.info
+        o = qp_osqp.solve(J, xi_fast, **kw)
+        assert o.info["status"] == "solved", o.info
+        _close(r.qd, o.qd, 1e-9, "QP active-set vs warm OSQP")
         if "daqp" in __import__("qpsolvers").available_solvers:
             d = S.QP(damping=lam, backend="daqp").solve(J, xi_fast, **kw)
-            _close(r.qd, d.qd, 1e-6, "QP osqp vs daqp")
+            _close(r.qd, d.qd, 1e-9, "QP active-set vs daqp")
 
-    row("fk + J + QP vel+pos limits, velocity binding (warm osqp)", step(qp, xi_fast, **kw),
-        qp_active_check)
+    row("fk + J + QP vel+pos limits, velocity binding (default: active set)",
+        step(qp, xi_fast, **kw), qp_active_check)
+    row("fk + J + QP vel+pos limits, velocity binding (warm osqp, shortcut=False)",
+        step(qp_osqp, xi_fast, **kw))
     kw_acc = dict(kw, qd_prev=qp.solve(J, xi, **kw).qd)
     row("fk + J + QP vel+pos+acc limits, none binding (osqp)", step(qp, xi, **kw_acc))
     import qpsolvers

@@ -30,6 +30,13 @@ acceleration limit), priority is velocity > position > acceleration: the box bec
 point of the higher-priority box nearest to the lower-priority one, and the result says
 so in ``info["conflicts"]``.
 
+Before any backend runs, the unconstrained minimiser P⁻¹b (the DLS solution) is tried:
+when it lies inside the box (and satisfies G q̇ ≤ h) it is the optimum
+(``info["status"] == "unconstrained"``). For a box-only problem on the default backend a
+few primal active-set steps follow (:func:`_box_active_set`); their answer is accepted
+only with a KKT certificate, so it is the exact optimum (``"active-set"``); when they do
+not settle within four steps OSQP answers.
+
 The default backend is OSQP kept **warm**: the problem is set up once with a fixed
 sparsity pattern (P upper-triangular dense, A = [I; G]) and every later call only
 updates P's values, q, l, u (and A's values when G is given), then solves, warm-started
@@ -136,7 +143,7 @@ class _BoundCache:
 
     __slots__ = ("src", "dt", "n", "limits", "vmax", "nvmax", "hi_lim", "lo_lim", "amax_dt",
                  "has_pos", "has_acc", "inv_dt", "lim2", "sgn2", "idx2", "vmax2", "adt", "inv_adt2",
-                 "adt2", "inv_adt22", "two_a", "dstar2")
+                 "adt2", "inv_adt22", "two_a", "dstar2", "vmax_l", "amax_dt_l")
 
     def __init__(self, src, limits: Limits, dt, margin):
         self.src, self.dt = src, dt
@@ -144,6 +151,7 @@ class _BoundCache:
         n = self.n = limits.vmax.shape[0]
         self.vmax = np.minimum(limits.vmax, _BIG)
         self.nvmax = -self.vmax
+        self.vmax_l = self.vmax.tolist()
         self.hi_lim = np.where(np.isfinite(limits.upper), limits.upper - margin, _BIG)
         self.lo_lim = np.where(np.isfinite(limits.lower), limits.lower + margin, -_BIG)
         afin = np.isfinite(limits.amax)
@@ -157,9 +165,11 @@ class _BoundCache:
         self.vmax2 = np.concatenate([self.vmax, self.vmax])
         if dt is None:
             self.amax_dt = self.inv_dt = self.adt = self.inv_adt2 = self.adt2 = self.inv_adt22 = None
+            self.amax_dt_l = None
             self.dstar2 = None
         else:
             self.amax_dt = np.where(afin, a * dt, _BIG)
+            self.amax_dt_l = self.amax_dt.tolist()
             self.inv_dt = 1.0 / dt
             self.adt = a * dt
             self.inv_adt2 = 1.0 / (a * dt * dt)
@@ -203,22 +213,28 @@ def _box(bc: _BoundCache, q, qd_prev):
     return lo, hi, ()
 
 
-def _sources(bc: _BoundCache, qd_prev, lo, hi, at_lo, at_hi) -> tuple[str, ...]:
-    """Kinds of limit that set the active bounds. The box values are exact copies of the
-    velocity limit, the acceleration bound or a position bound, so equality identifies
-    them (velocity first, then acceleration, else position)."""
+def _sources(bc: _BoundCache, qd_prev, lo, hi, held) -> tuple[str, ...]:
+    """Kinds of limit that set the active bounds; ``held[i]`` is +1 / −1 / 0 for a joint
+    at its upper / lower bound / free. The box values are exact copies of the velocity
+    limit, the acceleration bound or a position bound, so equality identifies them
+    (velocity first, then acceleration, else position)."""
     kinds = set()
-    vmax = bc.vmax
+    vmax = bc.vmax_l
     acc = qd_prev is not None and bc.amax_dt is not None and bc.has_acc
-    for side, mask, box in ((1.0, at_hi, hi), (-1.0, at_lo, lo)):
-        for i in np.flatnonzero(mask).tolist():
-            v = float(box[i])
-            if v == side * vmax[i]:
-                kinds.add(_VEL)
-            elif acc and v == qd_prev[i] + side * bc.amax_dt[i]:
-                kinds.add(_ACC)
-            else:
-                kinds.add(_POS)
+    lol = hil = qdl = None
+    for i, st in enumerate(held):
+        if not st:
+            continue
+        if lol is None:
+            lol, hil = lo.tolist(), hi.tolist()
+            qdl = qd_prev.tolist() if acc else None
+        v = hil[i] if st > 0 else lol[i]
+        if v == st * vmax[i]:
+            kinds.add(_VEL)
+        elif acc and v == qdl[i] + st * bc.amax_dt_l[i]:
+            kinds.add(_ACC)
+        else:
+            kinds.add(_POS)
     return tuple(_KIND[k] for k in (_VEL, _POS, _ACC) if k in kinds)
 
 
@@ -514,7 +530,7 @@ class QP(Solver):
         if extra_inequalities is not None:
             G, h = _extra(extra_inequalities, n)
         # shortcut: the unconstrained minimiser P⁻¹b (= the DLS solution) if it is feasible
-        qd = None
+        qd = held = None
         slack = math.inf
         if self.shortcut and self._pd:
             _, x0, info0 = _dposv(P, b)
@@ -523,6 +539,12 @@ class QP(Solver):
                     slack = min(float((hi - x0).min()), float((x0 - lo).min()))
                 if slack >= 0.0 and (G is None or bool(np.all(_dot(G, x0) <= h))):
                     qd, status, niter = x0, "unconstrained", 0
+                elif G is None and lo is not None and self.backend == "osqp":
+                    # a box-only problem: a few primal active-set steps from x0, accepted
+                    # only with a KKT certificate (then it is the exact optimum)
+                    qd, held, niter = _box_active_set(P, b, lo, hi, x0)
+                    if qd is not None:
+                        status = "active-set"
         if qd is None:
             lo_ = np.full(n, -_BIG) if lo is None else lo
             hi_ = np.full(n, _BIG) if hi is None else hi
@@ -558,12 +580,15 @@ class QP(Solver):
                               problem=self._problem(P, -b, G, h, lo, hi))
         # which bounds hold q̇
         active = ()
-        if lo is not None and slack < self.tolerance:
+        if held is not None:  # the active-set step knows which bounds hold
+            bound = np.array(held, dtype=bool)
+            active = _sources(bc, qd_prev, lo, hi, held)
+        elif lo is not None and slack < self.tolerance:
             tol = self.tolerance
             at_hi = qd >= hi - tol  # an absent bound is ±1e15: never reached
             at_lo = qd <= lo + tol
             bound = at_hi | at_lo
-            active = _sources(bc, qd_prev, lo, hi, at_lo, at_hi)
+            active = _sources(bc, qd_prev, lo, hi, (at_hi.astype(int) - (at_lo & ~at_hi)).tolist())
         else:
             bound = _zeros(n, dtype=bool)
         info = {"status": status, "iterations": niter, "backend": self.backend, "lower": lo,
@@ -644,6 +669,83 @@ class QP(Solver):
                            ("velocity",) if scale < 1.0 else (), True,
                            {"error": str(exc), "status": getattr(exc, "status", None),
                             "problem": getattr(exc, "problem", None)})
+
+
+def _box_active_set(P, b, lo, hi, x0, max_iter: int = 4):
+    """Exact minimiser of ½xᵀPx − bᵀx over lo ≤ x ≤ hi (P positive definite) by a few
+    primal active-set steps from the unconstrained minimiser x0 = P⁻¹b.
+
+    With the working set A (joints held at a bound x_A = f) the minimiser is, by the
+    Schur complement of P⁻¹,
+
+        x = x0 − P⁻¹E S⁻¹ (x0_A − f),   S = (P⁻¹)_AA,   g = Px − b = −E S⁻¹ (x0_A − f),
+
+    so each step is one small solve of size |A| (a division when one joint is held).
+    The working set starts as the bounds x0 violates; free joints that leave the box
+    join it, and held joints whose multiplier has the wrong sign (g > 0 at an upper
+    bound, g < 0 at a lower one) leave it. When neither happens the KKT conditions hold
+    and x is the optimum (the problem is strictly convex).
+
+    Returns (x, state, steps) with state[i] = +1 / −1 / 0 for a joint at its upper /
+    lower bound / free, or (None, None, steps) when ``max_iter`` steps do not settle or
+    a solve fails (the caller then uses the backend).
+    """
+    n = x0.shape[0]
+    _, Pinv, info = _dposv(P, _eye(n))
+    if info != 0:
+        return None, None, 0
+    x0l, lol, hil = x0.tolist(), lo.tolist(), hi.tolist()
+    state = [1 if x0l[i] > hil[i] else (-1 if x0l[i] < lol[i] else 0) for i in range(n)]
+    kkt = 1e-10 * (1.0 + max(map(abs, b.tolist())))
+    for it in range(1, max_iter + 1):
+        A = [i for i in range(n) if state[i]]
+        fix = [hil[i] if state[i] > 0 else lol[i] for i in A]
+        if not A:
+            return x0, state, it
+        if len(A) == 1:
+            a = A[0]
+            coef = [(x0l[a] - fix[0]) / float(Pinv[a, a])]
+            x = x0 - Pinv[:, a] * coef[0]
+        else:
+            S = Pinv[A][:, A]
+            _, c, info = _dposv(S, np.array([x0l[i] - f for i, f in zip(A, fix, strict=True)]))
+            if info != 0:
+                return None, None, it
+            coef = c.tolist()
+            x = x0 - _dot(Pinv[:, A], c)
+        xl = x.tolist()
+        for i, f in zip(A, fix, strict=True):
+            xl[i] = f  # held joints sit exactly on their bound
+        moved = False
+        for i in range(n):
+            if state[i] == 0:
+                if xl[i] > hil[i]:
+                    state[i] = 1
+                    moved = True
+                elif xl[i] < lol[i]:
+                    state[i] = -1
+                    moved = True
+        if moved:
+            continue
+        for j, i in enumerate(A):
+            g = -coef[j]
+            if (state[i] > 0 and g > kkt) or (state[i] < 0 and g < -kkt):
+                state[i] = 0
+                moved = True
+        if not moved:
+            return np.array(xl), state, it
+    return None, None, max_iter
+
+
+_EYE: dict[int, np.ndarray] = {}
+
+
+def _eye(n):
+    e = _EYE.get(n)
+    if e is None:
+        e = _EYE[n] = np.eye(n)
+        e.setflags(write=False)
+    return e
 
 
 def _polish(P, b, lo, hi, x):
