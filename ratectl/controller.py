@@ -6,12 +6,15 @@
     ξ  = ξ_ff + K e                           (feed-forward plus proportional feedback)
     q̇  = q̇_ff + solver(J(q), ξ)               (inverse velocity; q̇_ff optional)
 
-then applies the limits in this order — velocity (uniform scaling, which keeps the
+then applies the limits in this order: velocity (uniform scaling, which keeps the
 direction of motion), acceleration (the change of q̇ per cycle is scaled to fit
 amax·dt), joint position (each joint may only move as far as it can still stop before
 its limit at amax in whole periods: q̇ ≤ min(d/dt, a dt (√(1/4 + 2d/(a dt²)) − 1)),
-d = q_max − q, and the same towards q_min) — optionally smooths the result with a
-Ruckig velocity filter (jerk-limited) and integrates ``q_next = q + q̇ dt`` (or Ruckig's exact integral).
+d = q_max − q, and the same towards q_min). A solver that enforces the limits itself
+(the QP, ``enforces_limits = True``) is not limited again: its bounds and any extra rows
+(collision limits) are kept as solved and only reported. Then the controller optionally
+smooths the result with a Ruckig velocity filter (jerk-limited) and integrates
+``q_next = q + q̇ dt`` (or Ruckig's exact integral).
 
 Every call returns a frozen :class:`Command` whose ``status`` says what happened
 (see :data:`STATUSES`). Bad *values* never raise in the loop: a non-finite q,
@@ -390,7 +393,12 @@ class ResolvedRateController:
         if res.velocity_policy != "none":
             flags.append("velocity-scaled")
         # --- limits
-        if self._has_v:
+        if getattr(self.solver, "enforces_limits", False):
+            # the solver (the QP, possibly with extra rows such as collision limits) already
+            # bounds q̇ by the velocity, position and acceleration limits; limiting again here
+            # would move q̇ off its optimum and could break its extra rows
+            qd, scale = self._report_solver_limits(res, qd, smin, flags, reasons, scale)
+        elif self._has_v:
             r = float((np.abs(qd) * self._inv_vmax).max())
             if r > 1.0:
                 qd = qd / r
@@ -404,7 +412,7 @@ class ResolvedRateController:
                 flags.insert(0, "singular")
                 reasons[-1] = (f"near a singularity (σ_min = {smin:.3g}) the solver needs "
                                f"{1 / scale:.3g}× vmax; q̇ scaled by {scale:.3g}")
-        if self._has_a and self.filter is None:
+        if self._has_a and self.filter is None and not getattr(self.solver, "enforces_limits", False):
             dq = qd - self._qd
             r = float((np.abs(dq) * self._inv_amax).max()) / dt
             if r > 1.0:
@@ -416,7 +424,8 @@ class ResolvedRateController:
                     rv = float((np.abs(qd) * self._inv_vmax).max())
                     if rv > 1.0:
                         qd = qd / rv
-        if self._has_p and ((np.abs(q - self._pmid) + self._pbrake + self._vf * dt) > self._phalf).any():
+        if self._has_p and not getattr(self.solver, "enforces_limits", False) and (
+                (np.abs(q - self._pmid) + self._pbrake + self._vf * dt) > self._phalf).any():
             up = self._phi - q
             lo = self._plo - q
             amax = self._amax_f
@@ -435,7 +444,9 @@ class ResolvedRateController:
                 flags.insert(0, "joint-limit")
                 reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
                 active.append("position")
-        if res.damping > 0.0:
+        if res.damping > 0.0 and not (getattr(self.solver, "enforces_limits", False)
+                                      and smin >= self.singular_sigma):
+            # a QP's λ is a constant regulariser: it is reported only near a singularity
             flags.append("damped")
             reasons.append(f"damped least squares, λ = {res.damping:.3g} (σ_min = {smin:.3g})")
         if (not flags and target is not None and qd_ff is None
@@ -466,6 +477,39 @@ class ResolvedRateController:
                        twist=xi, sigma_min=smin, damping=float(res.damping), task_error=res.task_error,
                        velocity_scale=scale, limits_active=tuple(dict.fromkeys(active)), time=t0, dt=dt,
                        solve=res, _chain=self.chain, _q=q)
+
+    def _report_solver_limits(self, res, qd, smin, flags, reasons, scale):
+        """Flags and reasons for a solver that enforces the limits itself (the QP): which
+        joints sit at which kind of bound, from ``res.bound`` and ``res.limits_active``.
+        Only a q̇ beyond vmax by more than rounding (a bound conflict) is scaled back."""
+        if self._has_v:
+            r = float((np.abs(qd) * self._inv_vmax).max())
+            if r > 1.0 + 1e-9:
+                qd = qd / r
+                scale /= r
+                flags.append("velocity-scaled")
+                reasons.append(f"q̇ scaled by {1 / r:.3g} to respect vmax")
+        kinds = res.limits_active
+        joints = np.flatnonzero(res.bound).tolist() if len(res.bound) else []
+        if "position" in kinds:
+            flags.insert(0, "joint-limit")
+            reasons.insert(0, f"QP: joint(s) {joints} held by a position limit")
+        if "velocity" in kinds:
+            if smin < self.singular_sigma:
+                flags.insert(0, "singular")
+                reasons.append(f"near a singularity (σ_min = {smin:.3g}) the QP holds joint(s) "
+                               f"{joints} at vmax")
+            else:
+                flags.append("velocity-scaled")
+                reasons.append(f"QP: joint(s) {joints} at vmax")
+        if "acceleration" in kinds:
+            flags.append("acceleration-limited")
+            reasons.append(f"QP: joint(s) {joints} at the acceleration bound")
+        extra = res.info.get("extra_active") if isinstance(res.info, dict) else None
+        if extra is not None and np.any(extra):
+            reasons.append(f"{int(np.count_nonzero(extra))} extra constraint row(s) active "
+                           "(e.g. collision avoidance)")
+        return qd, scale
 
     # ------------------------------------------------------------------ halting
     def _halt(self, q, dt, reason, *, status="halted", sigma_min=float("nan"), error=None,

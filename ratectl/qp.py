@@ -417,6 +417,9 @@ class QP(Solver):
     """
 
     method = "qp"
+    #: the solution already respects the velocity, position and acceleration bounds (and
+    #: any extra rows): the controller reports them instead of limiting q̇ again
+    enforces_limits = True
 
     def __init__(self, *, damping: float = 0.05, backend: str = "osqp", margin: float = 0.0,
                  task_weights=None, joint_weights=None, objective=None,

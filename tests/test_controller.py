@@ -218,3 +218,43 @@ def test_input_shape_errors_raise(ur5e):
         rc.ResolvedRateController(ur5e, solver=object())
     with pytest.raises(InputError, match="limits"):
         rc.ResolvedRateController(ur5e, limits="robot")
+
+
+class _RowQP:
+    """A QP that also keeps q̇_0 + q̇_1 ≤ h (an extra row, like a collision limit)."""
+
+    def __init__(self, h):
+        self.qp = rc.solvers.QP()
+        self.h = h
+        self.enforces_limits = True
+
+    def reset(self):
+        self.qp.reset()
+
+    def solve(self, J, xi, **kw):
+        G = np.zeros((1, J.shape[1]))
+        G[0, :2] = 1.0
+        return self.qp.solve(J, xi, extra_inequalities=(G, [self.h]), **kw)
+
+
+def test_a_limit_enforcing_solver_is_not_limited_again(ur5e):
+    """With the QP the controller keeps the solver's q̇ (its bounds and extra rows hold)
+    and reports the limits that bound, by kind, instead of clipping again."""
+    upper = ur5e.upper.copy()
+    upper[0] = Q_REG[0] + 0.02  # joint 1 meets its upper limit on the way
+    lim = rc.solvers.Limits(lower=ur5e.lower, upper=upper, vmax=ur5e.vmax, amax=ur5e.amax)
+    ctrl = rc.ResolvedRateController(ur5e, solver=_RowQP(0.05), limits=lim, gain=5.0)
+    target = ur5e.fk(np.array([0.6, -1.0, 1.2, -1.8, 0.9, 0.3]))
+    q, qd_prev, seen = Q_REG.copy(), np.zeros(6), set()
+    dt = 1e-3
+    for _ in range(1500):
+        cmd = ctrl.step(q, target=target, dt=dt)
+        assert np.array_equal(cmd.qd, cmd.solve.qd)  # not re-limited by the controller
+        assert cmd.qd[0] + cmd.qd[1] <= 0.05 + 1e-7  # the extra row holds
+        assert np.all(np.abs(cmd.qd) <= ur5e.vmax + 1e-9)
+        assert np.all(np.abs(cmd.qd - qd_prev) <= ur5e.amax * dt + 1e-7)
+        assert q[0] <= lim.upper[0] + 1e-9
+        seen.update(cmd.flags)
+        q, qd_prev = cmd.q_next, cmd.qd
+    assert {"joint-limit", "acceleration-limited"} <= seen
+    assert "extra constraint" in cmd.reason or "joint-limit" in cmd.flags
