@@ -106,12 +106,15 @@ def bench_mujoco(chain, q):
     def one():
         data.qpos[:] = q
         mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)  # mj_jacSite reads the motion axes (cdof) it computes
         mujoco.mj_jacSite(model, data, jacp, jacr, sid)
 
     one()
     J0 = chain.jacobian(q)
-    if not (np.allclose(jacp, J0[:3], atol=1e-9) and np.allclose(jacr, J0[3:], atol=1e-9)):
-        return None
+    T0 = chain.fk(q)
+    if not (np.allclose(jacp, J0[:3], atol=1e-9) and np.allclose(jacr, J0[3:], atol=1e-9)
+            and np.allclose(data.site_xpos[sid], T0[:3, 3], atol=1e-9)):
+        raise AssertionError("MuJoCo's site Jacobian disagrees with ratectl's")
     return median_us(one)
 
 
@@ -160,7 +163,7 @@ def main(argv=None) -> None:
         print("  roboticstoolbox-python not installed")
     mj = bench_mujoco(chain, q)
     if mj is not None:
-        print(f"  mujoco mj_kinematics+jacSite {mj:6.2f} µs (ratectl/mujoco time {ours / mj:.2f}x)")
+        print(f"  mujoco kinematics+comPos+jacSite {mj:6.2f} µs (ratectl/mujoco time {ours / mj:.2f}x)")
     else:
         print("  mujoco comparison unavailable (needs ratectl.mujoco.to_mjcf and mujoco)")
 
