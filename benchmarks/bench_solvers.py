@@ -3,11 +3,12 @@
 Run:  python benchmarks/bench_solvers.py [--quick]
 
 Prints the median µs per control step (``chain.fk_jacobian(q)`` followed by
-``solver.solve(J, xi, ...)``) for every solver, the QP with velocity and position
-limits both when no limit binds (the unconstrained shortcut answers) and when the
-velocity limit binds (warm OSQP, and daqp through qpsolvers), and, when Pinocchio is
-installed, Pinocchio's Jacobian plus a plain numpy DLS for scale. Results of the
-solvers are cross-checked against numpy before timing. Pin to one core for the
+``solver.solve(J, xi, ...)``) for every solver; the QP with velocity and position
+limits when no limit binds (the unconstrained shortcut answers) and when the velocity
+limit binds (the default certified active-set step, warm OSQP with the shortcut off,
+daqp through qpsolvers); and, for scale, Pinocchio's Jacobian plus a plain numpy DLS
+and mink's ``solve_ik`` when those are installed. Results of the solvers are
+cross-checked against numpy, OSQP and daqp before timing. Pin to one core for the
 "one core" figures: ``taskset -c 0 python benchmarks/bench_solvers.py``.
 
 Targets (issue #4): fk + J + fixed-λ DLS ≤ 12 µs; + adaptive DLS ≤ 25 µs;
@@ -126,11 +127,49 @@ def main(argv=None) -> int:
         _close(pin_dls(), dls_ref, 1e-10, "pinocchio DLS")
         row("peer: Pinocchio J + numpy DLS (no result object)", pin_dls)
 
+    for name, fn in _mink_rows(ur, q, xi_fast):
+        rows.append((name, median_us(fn, number=max(number // 10, 20), repeat=repeat)))
+
     width = max(len(n) for n, _ in rows)
     print(f"UR5e, one configuration; median of {repeat} rounds × {number} calls")
     for name, us in rows:
         print(f"  {name:<{width}}  {us:8.2f} µs")
     return 0
+
+
+def _mink_rows(ur, q, xi):
+    """mink's ``solve_ik`` on the same arm (exported with ``to_mjcf``), a frame task at the
+    tool site with velocity and configuration limits, for scale: one call per step, as a
+    mink user's loop makes it. Skipped when mink or mujoco is missing."""
+    try:
+        import mink
+        import mujoco
+        import qpsolvers
+
+        from ratectl.mujoco import to_mjcf
+    except ImportError:
+        return []
+    model = mujoco.MjModel.from_xml_string(to_mjcf(ur))
+    conf = mink.Configuration(model)
+    conf.update(q)
+    task = mink.FrameTask("tool", "site", position_cost=1.0, orientation_cost=1.0)
+    T = ur.fk(q)
+    # a target one step of the twist ahead: mink resolves the same motion
+    target = T.copy()
+    target[:3, 3] += xi[:3] * 0.002
+    task.set_target(mink.SE3.from_matrix(target))
+    names = [model.joint(i).name for i in range(model.njnt)]
+    limits = [mink.ConfigurationLimit(model),
+              mink.VelocityLimit(model, {nm: float(v) for nm, v in zip(names, ur.vmax, strict=True)})]
+    out = []
+    for backend in ("daqp", "osqp"):
+        if backend not in qpsolvers.available_solvers:
+            continue
+        mink.solve_ik(conf, [task], 0.002, backend, damping=1e-3, limits=limits)
+        out.append((f"peer: mink solve_ik ({backend}, vel+pos limits)",
+                    lambda b=backend: mink.solve_ik(conf, [task], 0.002, b, damping=1e-3,
+                                                    limits=limits)))
+    return out
 
 
 def _close(a, b, tol, what):
