@@ -539,13 +539,14 @@ class QP(Solver):
             _, x0, info0 = _dposv(P, b)
             if info0 == 0:
                 if lo is not None:
-                    slack = min(float((hi - x0).min()), float((x0 - lo).min()))
+                    lists = (x0.tolist(), lo.tolist(), hi.tolist())
+                    slack = min(min(u - x, x - l) for x, l, u in zip(*lists, strict=True))
                 if slack >= 0.0 and (G is None or bool(np.all(_dot(G, x0) <= h))):
                     qd, status, niter = x0, "unconstrained", 0
                 elif G is None and lo is not None and self.backend == "osqp":
                     # a box-only problem: a few primal active-set steps from x0, accepted
                     # only with a KKT certificate (then it is the exact optimum)
-                    qd, held, niter = _box_active_set(P, b, lo, hi, x0)
+                    qd, held, niter = _box_active_set(P, b, lo, hi, x0, lists=lists)
                     if qd is not None:
                         status = "active-set"
         if qd is None:
@@ -674,7 +675,7 @@ class QP(Solver):
                             "problem": getattr(exc, "problem", None)})
 
 
-def _box_active_set(P, b, lo, hi, x0, max_iter: int = 4):
+def _box_active_set(P, b, lo, hi, x0, max_iter: int = 4, lists=None):
     """Exact minimiser of ½xᵀPx − bᵀx over lo ≤ x ≤ hi (P positive definite) by a few
     primal active-set steps from the unconstrained minimiser x0 = P⁻¹b.
 
@@ -697,7 +698,7 @@ def _box_active_set(P, b, lo, hi, x0, max_iter: int = 4):
     _, Pinv, info = _dposv(P, _eye(n))
     if info != 0:
         return None, None, 0
-    x0l, lol, hil = x0.tolist(), lo.tolist(), hi.tolist()
+    x0l, lol, hil = (x0.tolist(), lo.tolist(), hi.tolist()) if lists is None else lists
     state = [1 if x0l[i] > hil[i] else (-1 if x0l[i] < lol[i] else 0) for i in range(n)]
     kkt = 1e-10 * (1.0 + max(map(abs, b.tolist())))
     for it in range(1, max_iter + 1):
