@@ -3,8 +3,8 @@
 The loop tracks a moving target (a 5 cm circle at 0.2 m/s) with feed-forward twist and
 feedback, exactly as a user's control loop would, and times each ``step`` call:
 default solver (AdaptiveDLS) with and without Ruckig smoothing, plus the fixed-λ DLS and
-the exact inverse for reference. Also times the governor's planning of the acceptance
-line (UR5e, past the wrist singularity) and a whole ``follow`` run.
+the exact inverse for reference. Also times the governor's planning of the demo's line
+(``ratectl.demo.wrist_line``: UR5e, past the wrist singularity) and a whole ``follow`` run.
 
 Run:  python benchmarks/bench_controller.py [--steps N]
 Prints median / 90th-percentile µs per step. Target: ≤ 60 µs median with smoothing.
@@ -69,21 +69,16 @@ def main() -> None:
         us, st = loop(ctrl, arm, q0, args.steps)
         print(f"  {name:45s} {np.median(us):7.1f} / {np.percentile(us, 90):7.1f}   statuses {st}")
 
-    # governor planning and a whole follow run on the acceptance line
-    from ratectl.governor import Governor, joint_path
+    # governor planning and a whole follow run on the demo's line past the wrist singularity
+    from ratectl.demo import wrist_line
+    from ratectl.governor import Governor
 
-    q_c = np.array([0.0, -2.0, -1.6, -1.2, 0.01, 0.0])
-    d = np.array([math.cos(math.radians(30)), math.sin(math.radians(30)), 0.0])
-    T0 = arm.fk(q_c)
-    Ta, Tb = T0.copy(), T0.copy()
-    Ta[:3, 3] -= 0.15 * d
-    Tb[:3, 3] += 0.15 * d
-    qs = joint_path(arm, rc.paths.Line(T0, Ta, speed=0.2, acceleration=1.0), q_c).q[-1]
-    line = rc.paths.Line(Ta, Tb, speed=0.2, acceleration=1.0)
+    scenario = wrist_line("ur5e")
+    line, qs = scenario.path, scenario.q0
     t0 = time.perf_counter()
     plan = Governor().plan(arm, line, qs, dt=2e-3)
     tp = time.perf_counter() - t0
-    print(f"governor plan, UR5e wrist line (0.3 m, dt 2 ms): {tp * 1e3:.0f} ms, "
+    print(f"governor plan, UR5e demo line (0.3 m past |q5| = 0.01 rad, dt 2 ms): {tp * 1e3:.0f} ms, "
           f"{plan.info['grid_points']} path points, motion {plan.duration:.2f} s "
           f"(nominal {plan.nominal_duration:.2f} s)")
     t0 = time.perf_counter()

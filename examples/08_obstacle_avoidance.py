@@ -12,36 +12,18 @@ OpenGL context exists) under ``examples/out/`` and prints a summary.
 """
 
 import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 
 import ratectl as rc
+from ratectl.offscreen_gl import pick_gl_backend
 
 FAST = os.environ.get("RATECTL_FAST") == "1"
 OUT = Path(__file__).parent / "out"
 
 
-def pick_gl_backend():
-    """Choose MUJOCO_GL before mujoco is imported: EGL, then OSMesa, else None (no rendering)."""
-    probe = ("import mujoco; m = mujoco.MjModel.from_xml_string('<mujoco/>'); "
-             "r = mujoco.Renderer(m, 8, 8); r.render()")
-    candidates = [os.environ["MUJOCO_GL"]] if os.environ.get("MUJOCO_GL") else ["egl", "osmesa"]
-    for backend in candidates:
-        try:
-            ok = subprocess.run([sys.executable, "-c", probe], env={**os.environ, "MUJOCO_GL": backend},
-                                capture_output=True, timeout=60).returncode == 0
-        except (OSError, subprocess.TimeoutExpired):
-            ok = False
-        if ok:
-            os.environ["MUJOCO_GL"] = backend
-            return backend
-    return None
-
-
-GL = pick_gl_backend()
+GL = pick_gl_backend()  # before mujoco is imported
 
 import matplotlib  # noqa: E402
 

@@ -41,7 +41,7 @@ _LAZY_ATTRS = {
     "Execution": "execution",
 }
 _LAZY_MODULES = ("solvers", "qp", "singularity", "controller", "paths", "smoothing", "governor",
-                 "follow", "execution", "importers", "mujoco", "cli", "hessian", "demo")
+                 "follow", "execution", "importers", "mujoco", "cli", "hessian", "demo", "offscreen_gl")
 
 __all__ = [
     "DH", "MDH", "Chain", "Joint", "errors", "kinematics", "robots", "spatial",

@@ -15,31 +15,15 @@ from ratectl.errors import InputError
 from ratectl.governor import joint_path
 
 DT = 2e-3
-Q_CLOSEST = np.array([0.0, -2.0, -1.6, -1.2, 0.01, 0.0])  # q5 = 0.01 at the closest approach
-DIRECTION = np.array([math.cos(math.radians(30)), math.sin(math.radians(30)), 0.0])
-HALF = 0.15  # m on each side of the closest approach
-
-
-def wrist_line(arm):
-    """The line through the tool pose of Q_CLOSEST (constant orientation) and its start q."""
-    T0 = arm.fk(Q_CLOSEST)
-    Ta, Tb = T0.copy(), T0.copy()
-    Ta[:3, 3] -= HALF * DIRECTION
-    Tb[:3, 3] += HALF * DIRECTION
-    # the start configuration on the same branch: integrate back from Q_CLOSEST
-    back = joint_path(arm, rc.paths.Line(T0, Ta, speed=0.2, acceleration=1.0), Q_CLOSEST)
-    assert back.complete
-    return rc.paths.Line(Ta, Tb, speed=0.2, acceleration=1.0), back.q[-1]
-
-
 @pytest.fixture(scope="module")
 def ur5e():
     return rc.robots.ur5e()
 
 
 @pytest.fixture(scope="module")
-def scenario(ur5e):
-    return wrist_line(ur5e)
+def scenario(ur5e_wrist_line):
+    """(line, q0) of the acceptance line (tests/conftest.py)."""
+    return ur5e_wrist_line[1:]
 
 
 @pytest.fixture(scope="module")

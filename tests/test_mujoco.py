@@ -353,3 +353,21 @@ def test_simulate_reports_an_unstable_model():
     sim, _ = simulate(xml, arm, T, q0, dt=0.01, duration=2.0)
     assert not sim.completed
     assert "unstable" in sim.message
+
+
+def test_pick_gl_backend_reports_none_when_nothing_renders():
+    """A backend that does not exist is probed in a child process and refused (None)."""
+    import subprocess
+    import sys
+
+    code = ("import os; os.environ['MUJOCO_GL'] = 'no-such-backend'; "
+            "from ratectl.offscreen_gl import pick_gl_backend; print(pick_gl_backend())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "None", out.stderr
+
+
+def test_pick_gl_backend_after_mujoco_is_imported_reports_what_is_in_force(monkeypatch):
+    from ratectl.offscreen_gl import pick_gl_backend
+
+    monkeypatch.setenv("MUJOCO_GL", "egl")
+    assert pick_gl_backend() == "egl"  # mujoco is already imported here: nothing is probed

@@ -8,7 +8,6 @@ import pytest
 
 import ratectl as rc
 from ratectl.errors import InputError
-from ratectl.governor import joint_path
 from ratectl.smoothing import VelocityFilter, move, stop
 
 
@@ -95,18 +94,10 @@ def test_stop_comes_to_rest_within_limits():
     assert traj.duration >= 3.0 / 10.0
 
 
-def test_smoothed_line_near_the_wrist_singularity():
-    """The acceptance line (see test_follow.py) with a Ruckig-smoothed controller: jerk limits
+def test_smoothed_line_near_the_wrist_singularity(ur5e_wrist_line):
+    """The acceptance line (tests/conftest.py) with a Ruckig-smoothed controller: jerk limits
     respected, the tool within 2 mm of the line."""
-    arm = rc.robots.ur5e()
-    q_c = np.array([0.0, -2.0, -1.6, -1.2, 0.01, 0.0])
-    d = np.array([math.cos(math.radians(30)), math.sin(math.radians(30)), 0.0])
-    T0 = arm.fk(q_c)
-    Ta, Tb = T0.copy(), T0.copy()
-    Ta[:3, 3] -= 0.15 * d
-    Tb[:3, 3] += 0.15 * d
-    q0 = joint_path(arm, rc.paths.Line(T0, Ta, speed=0.2, acceleration=1.0), q_c).q[-1]
-    line = rc.paths.Line(Ta, Tb, speed=0.2, acceleration=1.0)
+    arm, line, q0 = ur5e_wrist_line
     dt = 2e-3
     ctrl = rc.ResolvedRateController(arm, smoothing=True)
     run = rc.follow(arm, line, q0, dt=dt, controller=ctrl)
