@@ -182,12 +182,19 @@ def move(q_start, q_goal, *, vmax, amax, jmax, qd_start=None, qdd_start=None) ->
     inp.max_velocity = _limit_array(vmax, n, "vmax").tolist()
     inp.max_acceleration = _limit_array(amax, n, "amax").tolist()
     inp.max_jerk = _limit_array(jmax, n, "jmax").tolist()
+    traj = _calculate(inp, n, "the joint move", {"q_start": q0, "q_goal": q1})
+    return JointTrajectory(float(traj.duration), q0.copy(), q1.copy(), traj)
+
+
+def _calculate(inp, n: int, what: str, problem: dict):
+    """Ruckig's offline trajectory for ``inp``; a failure raises SolverError naming ``what``."""
+    import ruckig
+
     traj = ruckig.Trajectory(n)
     res = ruckig.Ruckig(n).calculate(inp, traj)
     if res not in (ruckig.Result.Working, ruckig.Result.Finished):
-        raise SolverError(f"Ruckig could not compute the joint move: {res}", status=res,
-                          problem={"q_start": q0, "q_goal": q1})
-    return JointTrajectory(float(traj.duration), q0.copy(), q1.copy(), traj)
+        raise SolverError(f"Ruckig could not compute {what}: {res}", status=res, problem=problem)
+    return traj
 
 
 def stop(q, qd, *, qdd=None, amax, jmax) -> JointTrajectory:
@@ -207,10 +214,6 @@ def stop(q, qd, *, qdd=None, amax, jmax) -> JointTrajectory:
     inp.max_velocity = [math.inf] * n
     inp.max_acceleration = _limit_array(amax, n, "amax").tolist()
     inp.max_jerk = _limit_array(jmax, n, "jmax").tolist()
-    traj = ruckig.Trajectory(n)
-    res = ruckig.Ruckig(n).calculate(inp, traj)
-    if res not in (ruckig.Result.Working, ruckig.Result.Finished):
-        raise SolverError(f"Ruckig could not compute the stop: {res}", status=res,
-                          problem={"q": q, "qd": qd})
+    traj = _calculate(inp, n, "the stop", {"q": q, "qd": qd})
     p_end = np.array(traj.at_time(traj.duration)[0])
     return JointTrajectory(float(traj.duration), q.copy(), p_end, traj)
