@@ -448,6 +448,10 @@ class ResolvedRateController:
             brake_lo = adt * np.maximum(np.sqrt(0.25 + 2.0 * np.maximum(-lo, 0.0) / (adt * dt)) - 1.0, 0.0)
             hi_v = np.minimum(up / dt, brake_up)
             lo_v = np.maximum(lo / dt, -brake_lo)
+            # a joint found beyond a limit (a disturbance, or a start outside the range) is
+            # brought back no faster than vmax and no harder than amax from the previous q̇
+            hi_v = np.maximum(hi_v, np.maximum(-self._vf, self._qd - adt))
+            lo_v = np.minimum(lo_v, np.minimum(self._vf, self._qd + adt))
             clipped = np.clip(qd, lo_v, hi_v)
             changed = clipped != qd
             if changed.any():

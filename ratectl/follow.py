@@ -87,6 +87,13 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
     if q.shape != (chain.dof,):
         raise InputError(f"q0 must be one configuration ({chain.dof},), got {q.shape}", argument="q0",
                          value=q0)
+    outside = np.flatnonzero((q < chain.lower) | (q > chain.upper))
+    if outside.size:
+        names = chain.joint_names
+        detail = "; ".join(f"joint {i + 1} ({names[i]}): q = {q[i]:.6g}, limits "
+                           f"[{chain.lower[i]:.6g}, {chain.upper[i]:.6g}]" for i in outside)
+        raise InputError(f"q0 is outside the joint position limits ({detail}); start inside the "
+                         "range", argument="q0", value=q0)
     ctrl = controller if controller is not None else ResolvedRateController(chain)
     if ctrl.chain is not chain and ctrl.chain.dof != chain.dof:
         raise InputError("the controller was built for another chain", argument="controller",

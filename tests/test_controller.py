@@ -258,3 +258,21 @@ def test_a_limit_enforcing_solver_is_not_limited_again(ur5e):
         q, qd_prev = cmd.q_next, cmd.qd
     assert {"joint-limit", "acceleration-limited"} <= seen
     assert "extra constraint" in cmd.reason or "joint-limit" in cmd.flags
+
+
+def test_a_joint_beyond_its_limit_returns_within_vmax_and_amax(ur5e):
+    """Measured q beyond a position limit (a disturbance): the controller brings the joint
+    back into its range without exceeding vmax or amax (it used to jump at (limit − q)/dt)."""
+    ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.DLS(damping=0.01))
+    q = Q_REG.copy()
+    q[2] = ur5e.upper[2] + 0.2  # 0.2 rad beyond the elbow's upper limit
+    target = ur5e.fk(q)
+    dt = 1e-3
+    qd_prev = np.zeros(6)
+    for _ in range(3000):
+        cmd = ctrl.step(q, target=target, dt=dt)
+        assert np.all(np.abs(cmd.qd) <= ur5e.vmax * (1 + 1e-9))
+        assert np.all(np.abs(cmd.qd - qd_prev) <= ur5e.amax * dt * (1 + 1e-9))
+        assert cmd.qd[2] <= 1e-12 or q[2] <= ur5e.upper[2]  # never further out
+        q, qd_prev = cmd.q_next, cmd.qd
+    assert q[2] <= ur5e.upper[2] + 1e-9
