@@ -251,6 +251,16 @@ class ResolvedRateController:
             else:
                 raise InputError("smoothing must be False, True or a ratectl.smoothing.VelocityFilter, "
                                  f"got {smoothing!r}", argument="smoothing", value=smoothing)
+            if self.filter.dof != n:
+                raise InputError(f"the VelocityFilter has {self.filter.dof} joints, the chain {n}",
+                                 argument="smoothing", value=smoothing)
+            if self.limits is not None and self._has_p:
+                # a jerk-limited joint needs more room to stop: widen the "near a limit" gate
+                from .smoothing import stopping_distance
+
+                f = self.filter
+                self._pbrake = np.maximum(self._pbrake,
+                                          stopping_distance(f.vmax, f.amax, f.amax, f.jmax))
         self.position_tolerance = float(position_tolerance)
         self.orientation_tolerance = float(orientation_tolerance)
         self.timeout = float(timeout)
@@ -430,14 +440,14 @@ class ResolvedRateController:
                     rv = float((np.abs(qd) * self._inv_vmax).max())
                     if rv > 1.0:
                         qd = qd / rv
-        if self._has_p and not enforcing:
+        if self._has_p and (not enforcing or self.filter is not None):
             if self._pthresh_dt != dt:  # |q − mid| beyond this: a joint may need to brake
                 self._pthresh = self._phalf - self._pbrake - self._vf * dt
                 self._pthresh_dt = dt
             near = (np.abs(q - self._pmid) > self._pthresh).any()
         else:
             near = False
-        if near:
+        if near and not enforcing:
             up = self._phi - q
             lo = self._plo - q
             amax = self._amax_f
@@ -460,6 +470,9 @@ class ResolvedRateController:
                 flags.insert(0, "joint-limit")
                 reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
                 active.append("position")
+        self._braking = None
+        if self.filter is not None and near:
+            qd = self._jerk_limited_position_guard(q, qd, dt, flags, reasons, active)
         if res.damping > 0.0 and not (enforcing and smin >= self.singular_sigma):
             # a QP's λ is a constant regulariser: it is reported only near a singularity
             flags.append("damped")
@@ -473,7 +486,7 @@ class ResolvedRateController:
         if self.filter is not None:
             if abs(self.filter.dt - dt) > 1e-15:
                 self.filter.dt = dt
-            q_next, qd, qdd = self.filter.update(q, qd, qdd_ff)
+            q_next, qd, qdd = self.filter.update(q, qd, qdd_ff, independent=self._braking)
         else:
             q_next = q + qd * dt
             qdd = (qd - self._qd) / dt
@@ -496,6 +509,48 @@ class ResolvedRateController:
                             limits_active=tuple(dict.fromkeys(active)) if active else (), time=t0,
                             dt=dt, solve=res, _chain=self.chain, _q=q)
         return cmd
+
+    def _jerk_limited_position_guard(self, q, qd, dt, flags, reasons, active):
+        """Keep a smoothed joint inside its position range: the Ruckig filter lags the
+        command, so braking must start while the jerk-limited stop still fits.
+
+        From the filter's state (v, a) the worst case one period ahead towards a limit is
+        a₁ = min(a + J·dt, A), v₁ = v + a·dt + J·dt²/2 after travelling v·dt + a·dt²/2 +
+        J·dt³/6. If the jerk-limited stop from (v₁, a₁) (:func:`~ratectl.smoothing.
+        stopping_distance`) no longer fits in the room left, the command towards that
+        limit is 0 now (Ruckig then brakes time-optimally); otherwise it is at most
+        :func:`~ratectl.smoothing.braking_speed` of the room. The same mirrored towards
+        the lower limit."""
+        from .smoothing import braking_speed, stopping_distance
+
+        f = self.filter
+        A, Jm = f.amax, f.jmax
+        v, a = self._qd, self._qdd
+        jdt = Jm * dt
+        ahead_v = 0.5 * jdt * dt
+        ahead_x = jdt * dt * dt / 6.0
+        room_up = self._phi - q
+        room_lo = q - self._plo
+        # towards the upper limit
+        a1 = np.minimum(a + jdt, A)
+        v1 = v + a * dt + ahead_v
+        stop_up = stopping_distance(v1, a1, A, Jm) >= room_up - (v * dt + 0.5 * a * dt * dt + ahead_x)
+        hi_v = np.where(stop_up, 0.0, braking_speed(room_up, A, Jm))
+        # towards the lower limit (mirrored)
+        a1 = np.minimum(-a + jdt, A)
+        v1 = -v - a * dt + ahead_v
+        stop_lo = stopping_distance(v1, a1, A, Jm) >= room_lo - (-v * dt - 0.5 * a * dt * dt + ahead_x)
+        lo_v = np.where(stop_lo, 0.0, -braking_speed(room_lo, A, Jm))
+        clipped = np.minimum(np.maximum(qd, lo_v), hi_v)
+        changed = clipped != qd
+        self._braking = stop_up | stop_lo  # brake time-optimally, not stretched to the others
+        if changed.any():
+            joints = np.flatnonzero(changed).tolist()
+            if "joint-limit" not in flags:
+                flags.insert(0, "joint-limit")
+            reasons.insert(0, f"joint(s) {joints} braking for a position limit (jerk-limited stop)")
+            active.append("position")
+        return clipped
 
     def _report_solver_limits(self, res, qd, smin, flags, reasons, scale):
         """Flags and reasons for a solver that enforces the limits itself (the QP): which

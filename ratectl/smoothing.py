@@ -8,6 +8,10 @@
   intermediate waypoints): from a joint state to a goal at rest, time-optimal and
   jerk-limited, all joints synchronised. Used to go to the start of a path.
 * :func:`stop` — the jerk-limited motion that brings a moving joint state to rest.
+* :func:`stopping_distance` and :func:`braking_speed` — the closed forms of that stop
+  per joint (how far a jerk-limited joint travels before it is at rest, and the speed
+  from which it can still stop within a distance); the controller uses them to keep a
+  smoothed joint inside its position range.
 
 Ruckig's intermediate waypoints are never used (the community build computes them
 through a remote service); only single-segment state-to-state and velocity-interface
@@ -23,7 +27,7 @@ import numpy as np
 
 from .errors import InputError, SolverError
 
-__all__ = ["VelocityFilter", "JointTrajectory", "move", "stop"]
+__all__ = ["VelocityFilter", "JointTrajectory", "move", "stop", "stopping_distance", "braking_speed"]
 
 
 def _limit_array(value, n: int, name: str) -> np.ndarray:
@@ -73,6 +77,7 @@ class VelocityFilter:
         # is then met exactly at t + dt instead of early (and overshot by q̈·(dt − T))
         self._inp.minimum_duration = dt
         self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
+        self._per_dof = False
         self.reset()
 
     @property
@@ -100,16 +105,29 @@ class VelocityFilter:
     def acceleration(self) -> np.ndarray:
         return np.array(self._inp.current_acceleration)
 
-    def update(self, q, qd_target, qdd_target=None):
+    def update(self, q, qd_target, qdd_target=None, *, independent=None):
         """One period: returns ``(q_next, qd, qdd)`` of the jerk-limited motion from ``q``.
+
+        The joints are time-synchronised (they reach the target velocity together, so the
+        joint-space direction of the change is kept), except those in ``independent``.
 
         Args:
             q: current joint positions (n,) (the position the motion starts from).
             qd_target: desired joint velocity (n,), clipped to ±vmax.
             qdd_target: desired joint acceleration at that velocity (n,), clipped to ±amax
                 (default 0: arrive at the target velocity and stay there).
+            independent: optional (n,) booleans: joints that move time-optimally on their
+                own this period instead of being stretched to the others' time (a joint
+                braking for its position limit must brake as hard as it can).
         """
         inp = self._inp
+        if independent is not None and any(independent):
+            sync = self._ruckig.Synchronization
+            inp.per_dof_synchronization = [sync.No if m else sync.Time for m in independent]
+            self._per_dof = True
+        elif self._per_dof:
+            inp.per_dof_synchronization = None
+            self._per_dof = False
         inp.current_position = q.tolist() if type(q) is np.ndarray else list(q)
         vt = np.minimum(np.maximum(qd_target, self._neg_vmax), self.vmax)  # (np.clip is slower)
         inp.target_velocity = vt.tolist()
@@ -217,3 +235,42 @@ def stop(q, qd, *, qdd=None, amax, jmax) -> JointTrajectory:
     traj = _calculate(inp, n, "the stop", {"q": q, "qd": qd})
     p_end = np.array(traj.at_time(traj.duration)[0])
     return JointTrajectory(float(traj.duration), q.copy(), p_end, traj)
+
+
+def stopping_distance(v, a, amax, jmax) -> np.ndarray:
+    """Distance a joint travels while a time-optimal jerk-limited stop brings it from
+    velocity ``v`` ≥ 0 and acceleration ``a`` to rest (|q̈| ≤ amax, |q⃛| ≤ jmax); arrays
+    broadcast. Units: rad (or m) for rad/s, rad/s², rad/s³.
+
+    From rest acceleration (a = 0) the stop is a symmetric S-curve, so D = v·T/2:
+
+        D₀(v) = v^{3/2}/√J                    for v ≤ A²/J (peak deceleration √(Jv) < A),
+        D₀(v) = v²/(2A) + v·A/(2J)            otherwise (deceleration held at A).
+
+    With a > 0 (still speeding up) the jerk first brings a to 0 in a/J, adding
+    v·a/J + a³/(3J²) of travel and a²/(2J) of speed: D = v·a/J + a³/(3J²) + D₀(v + a²/(2J)).
+    A negative a (already braking) is counted as 0, which over-estimates D (safe side).
+    """
+    v = np.maximum(np.asarray(v, dtype=float), 0.0)
+    a = np.maximum(np.asarray(a, dtype=float), 0.0)
+    A = np.asarray(amax, dtype=float)
+    J = np.asarray(jmax, dtype=float)
+    lead = v * a / J + a**3 / (3.0 * J * J)
+    w = v + a * a / (2.0 * J)
+    d0 = np.where(w <= A * A / J, w * np.sqrt(w / J), w * w / (2.0 * A) + w * A / (2.0 * J))
+    return lead + d0
+
+
+def braking_speed(d, amax, jmax) -> np.ndarray:
+    """The largest speed from which a joint at zero acceleration can still stop within
+    the distance ``d`` ≥ 0 under |q̈| ≤ amax, |q⃛| ≤ jmax: the inverse of
+    :func:`stopping_distance` at a = 0,
+
+        v = (d·√J)^{2/3}                                   for d ≤ A³/J²,
+        v = (−A²/J + √(A⁴/J² + 8·A·d))/2                   otherwise.
+    """
+    d = np.maximum(np.asarray(d, dtype=float), 0.0)
+    A = np.asarray(amax, dtype=float)
+    J = np.asarray(jmax, dtype=float)
+    k = A * A / J
+    return np.where(d <= A**3 / (J * J), np.cbrt(d * d * J), 0.5 * (-k + np.sqrt(k * k + 8.0 * A * d)))

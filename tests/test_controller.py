@@ -276,3 +276,30 @@ def test_a_joint_beyond_its_limit_returns_within_vmax_and_amax(ur5e):
         assert cmd.qd[2] <= 1e-12 or q[2] <= ur5e.upper[2]  # never further out
         q, qd_prev = cmd.q_next, cmd.qd
     assert q[2] <= ur5e.upper[2] + 1e-9
+
+
+@pytest.mark.parametrize("name", ["puma560", "iiwa7", "panda"])
+def test_smoothed_joints_stay_inside_their_position_ranges(name):
+    """Random far targets with the Ruckig filter on: the filter lags the command, so the
+    controller must start braking while the jerk-limited stop still fits. (Without that, a
+    PUMA joint with jmax = 100 rad/s³ overran its limit by 1.6 rad.)"""
+    arm = rc.robots.BUILTIN[name]()
+    rng = np.random.default_rng(7)
+    worst = 0.0
+    for solver in (rc.solvers.AdaptiveDLS(), rc.solvers.DLS(damping=0.02), rc.solvers.QP()):
+        for _ in range(3):
+            ctrl = rc.ResolvedRateController(arm, solver=solver, gain=float(rng.uniform(5, 30)),
+                                             smoothing=True)
+            q = arm.random_q(rng=rng)
+            target = arm.fk(arm.random_q(rng=rng))
+            dt = float(rng.choice([1e-3, 4e-3]))
+            qdd_prev = np.zeros(arm.dof)
+            for _ in range(400):
+                cmd = ctrl.step(q, target=target, dt=dt)
+                worst = max(worst, float(np.max(cmd.q_next - arm.upper)),
+                            float(np.max(arm.lower - cmd.q_next)))
+                assert np.all(np.abs(cmd.qd) <= arm.vmax * (1 + 1e-9))
+                assert np.all(np.abs(cmd.qdd) <= arm.amax * (1 + 1e-9))
+                assert np.all(np.abs(cmd.qdd - qdd_prev) <= arm.jmax * dt * (1 + 1e-6))
+                q, qdd_prev = cmd.q_next, cmd.qdd
+    assert worst <= 1e-9

@@ -106,3 +106,20 @@ def test_smoothed_line_near_the_wrist_singularity(ur5e_wrist_line):
     assert run.max_position_error < 2e-3
     assert run.max_orientation_error < math.radians(0.5)
     assert run.info["plan"].info["jerk_ratio"] <= 0.95  # the plan itself was made jerk-feasible
+
+
+def test_stopping_distance_is_ruckigs_stop():
+    """The closed form equals the end of Ruckig's time-optimal stop, and braking_speed inverts it."""
+    from ratectl.smoothing import braking_speed, stopping_distance
+
+    rng = np.random.default_rng(3)
+    for _ in range(100):
+        A, J = rng.uniform(1, 20), rng.uniform(10, 5000)
+        v, a = rng.uniform(0, 4), rng.uniform(0, A)
+        traj = stop([0.0], [v], qdd=[a], amax=A, jmax=J)
+        assert stopping_distance(v, a, A, J) == pytest.approx(traj.goal[0], rel=1e-9, abs=1e-12)
+    d = np.linspace(0.0, 3.0, 61)
+    assert np.allclose(stopping_distance(braking_speed(d, 10.0, 100.0), 0.0, 10.0, 100.0), d, atol=1e-12)
+    # already braking (a < 0) is counted as not braking: an upper bound
+    assert stopping_distance(1.0, -5.0, 10.0, 100.0) >= stop([0.0], [1.0], qdd=[-5.0], amax=10.0,
+                                                             jmax=100.0).goal[0]
