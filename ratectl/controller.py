@@ -486,7 +486,10 @@ class ResolvedRateController:
         if self.filter is not None:
             if abs(self.filter.dt - dt) > 1e-15:
                 self.filter.dt = dt
-            q_next, qd, qdd = self.filter.update(q, qd, qdd_ff, independent=self._braking)
+            try:
+                q_next, qd, qdd = self.filter.update(q, qd, qdd_ff, independent=self._braking)
+            except RatectlError as err:
+                return self._halt(q, dt, f"smoothing failed: {err}", error=e, ep=ep, eo=eo)
         else:
             q_next = q + qd * dt
             qdd = (qd - self._qd) / dt
@@ -593,9 +596,14 @@ class ResolvedRateController:
         base = q if np.all(np.isfinite(q)) else self._q_last
         if base is None:
             base = np.zeros(self._n)
+        smoothed = False
         if self.filter is not None:
-            q_next, qd, qdd = self.filter.update(base, np.zeros(self._n))
-        else:
+            try:
+                q_next, qd, qdd = self.filter.update(base, np.zeros(self._n))
+                smoothed = True
+            except RatectlError as err:  # the filter failed: brake without it
+                reason = f"{reason}; smoothing failed while halting ({err})"
+        if not smoothed:
             amax = self.limits.amax if self.limits is not None else np.full(self._n, np.inf)
             with np.errstate(divide="ignore", invalid="ignore"):
                 t_stop = float(np.max(np.where(np.isfinite(amax), np.abs(qd_prev) / amax, 0.0)))

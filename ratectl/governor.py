@@ -312,14 +312,17 @@ def _accel_mvc(a, b, c):
 
 
 def _topp(jp: JointPath, vlim, alim, path_speed, path_acc):
-    """Fastest x = ṡ² profile on the grid; both ends are left to the limits (the
-    jerk-limited executor starts and ends at rest by itself)."""
+    """Fastest x = ṡ² profile on the grid, at rest at both ends: the forward pass builds
+    the admissible acceleration from rest into x(s), the backward pass the admissible
+    deceleration to rest at the end (and before every dip of the limit curve)."""
     a, b, c, xv = _constraints(jp, vlim, alim, path_speed, path_acc)
     mvc = np.minimum(xv, _accel_mvc(a, b, c))
     S = jp.s
     N = len(S)
     x = np.empty(N)
-    x[0] = mvc[0]  # the jerk-limited executor starts from rest by itself
+    x[0] = 0.0  # start and end at rest: the passes then build admissible ramps into x(s)
+    mvc = mvc.copy()
+    mvc[-1] = 0.0
     for k in range(N - 1):
         h = S[k + 1] - S[k]
         _, hi = _u_bounds(a[k], b[k], c[k], np.array(x[k]))
@@ -430,6 +433,12 @@ class Governor:
             raise InputError(f"dt must be a positive period [s], got {dt!r}", argument="dt", value=dt)
         jp = joint_path(chain, path, q0, max_joint_step=self.max_joint_step,
                         sigma_tolerance=self.sigma_tolerance, nullspace_gain=self.nullspace_gain)
+        if len(jp.s) < 2:
+            raise InputError(f"the governor cannot plan this path from q0: {jp.message or 'no joint path'}; "
+                             "start from a regular configuration (or follow with governor=False, "
+                             "which damps through it)", argument="q0", value=q0)
+        if not jp.complete:
+            jp = _trim_singular_end(jp, 3.0 * self.sigma_tolerance)
         # absent limits (inf) become very large finite ones, so the TOPP rows stay finite
         vmax = np.where(np.isfinite(chain.vmax), chain.vmax, 1e6)
         amax = np.where(np.isfinite(chain.amax), chain.amax, 1e8)
@@ -439,7 +448,9 @@ class Governor:
         best = None
         for it in range(self.max_iterations):
             x, mvc = _topp(jp, vm * vmax, am * amax, path.speed, path.acceleration)
-            s, sd, sdd = _track(jp, x, dt=dt, acc=path.acceleration, jerk=jerk, lookahead=self.lookahead)
+            rows = _constraints(jp, vm * vmax, am * amax, path.speed, path.acceleration)[:3]
+            s, sd, sdd = _track(jp, x, dt=dt, acc=path.acceleration, jerk=jerk, lookahead=self.lookahead,
+                                rows=rows)
             q = jp.interpolate(s)
             qd = np.zeros_like(q)
             qd[:-1] = np.diff(q, axis=0) / dt
@@ -479,12 +490,30 @@ class Governor:
                                   "jerk_ratio": rj if self.check_jerk else None})
 
 
-def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead):
+def _trim_singular_end(jp: JointPath, sigma: float) -> JointPath:
+    """Drop the end of a joint path that stopped at a singularity where σ_min < ``sigma``:
+    there q' ~ 1/σ grows without bound, the interpolated joint motion is dominated by
+    its own rounding, and a plan cannot approach it usefully anyway (it ends there)."""
+    keep = np.flatnonzero(jp.sigma_min >= sigma)
+    if keep.size < 2 or keep[-1] == len(jp.s) - 1:
+        return jp
+    k = int(keep[-1]) + 1
+    return JointPath(jp.s[:k], jp.q[:k], jp.dq[:k], jp.ddq[:k], jp.sigma_min[:k], jp.complete,
+                     jp.message)
+
+
+def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead, rows=None):
     """Jerk-limited progress with 1-D Ruckig, |s̈| ≤ acc, |s⃛| ≤ jerk. Away from the end the
     velocity interface follows a target speed — the smallest admissible ṡ over a look-ahead
     window ahead of s, so the progress slows before every dip of the admissible speed;
     near the end the position interface brings s to the end of the joint path at rest
-    (its velocity limit still capped the same way)."""
+    (its velocity limit still capped the same way).
+
+    With ``rows`` = (a, b, c) of :func:`_constraints`, the progress acceleration is also
+    held, every period, inside the interval of s̈ that the joint acceleration limits allow
+    at the current speed over the window (a u + b ṡ² ≤ c): where q' is large (near a
+    singularity) a path acceleration that is harmless elsewhere would ask q̈ = q' s̈ beyond
+    amax."""
     import ruckig
 
     S = jp.s
@@ -498,12 +527,15 @@ def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead):
     inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [0.0], [0.0]
     inp.target_position, inp.target_velocity, inp.target_acceleration = [end], [0.0], [0.0]
     inp.max_acceleration, inp.max_jerk = [acc], [jerk]
+    inp.min_acceleration = [-acc]
     vfloor = 1e-7
+    if rows is not None:
+        ra, rb, rc = rows
     s_list, sd_list, sdd_list = [0.0], [0.0], [0.0]
     s, sd, sdd = 0.0, 0.0, 0.0
     final = False
-    limit = int(50.0 * 3600 / dt)  # hard stop (50 h) against a stuck profile
-    for _ in range(limit):
+    max_time = 3600.0  # [s] a governed motion slower than this is a stuck profile, not a plan
+    for _ in range(int(max_time / dt)):
         window = sd * (T_look + dt) + 0.5 * max(sdd, 0.0) * T_look**2 + 1e-9
         i0 = max(int(np.searchsorted(S, s, side="right")) - 1, 0)
         i1 = int(np.searchsorted(S, s + window, side="right"))
@@ -513,7 +545,8 @@ def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead):
             cap = min(cap, float(np.min(sdmax[i0 + 1:i1])))
         cap = max(cap, vfloor)
         if not final:
-            brake = sd * sd / (2.0 * acc) + sd * (acc / jerk + 2.0 * dt) + 0.5 * abs(sdd) ** 3 / (acc * jerk)
+            dec = acc if rows is None else max(-float(inp.min_acceleration[0]), 1e-3 * acc)
+            brake = sd * sd / (2.0 * dec) + sd * (dec / jerk + 2.0 * dt) + 0.5 * abs(sdd) ** 3 / (dec * jerk)
             if end - s <= 1.5 * brake + 1e-9:
                 final = True
                 inp.control_interface = ruckig.ControlInterface.Position
@@ -522,6 +555,13 @@ def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead):
             inp.max_velocity = [cap]
         else:
             inp.target_velocity = [cap]
+        if rows is not None:
+            j0, j1 = i0, max(i1, i0 + 1)
+            lo_u, hi_u = _u_bounds(ra[j0:j1 + 1], rb[j0:j1 + 1], rc[j0:j1 + 1],
+                                   np.full(min(j1 + 1, len(S)) - j0, sd * sd))
+            floor = 1e-3 * acc
+            inp.max_acceleration = [min(acc, max(float(np.min(hi_u)), floor))]
+            inp.min_acceleration = [-min(acc, max(-float(np.max(lo_u)), floor))]
         res = otg.update(inp, out)
         if res not in (ruckig.Result.Working, ruckig.Result.Finished):
             raise InputError(f"the progress generator failed (Ruckig {res}); check the path limits",
@@ -533,8 +573,13 @@ def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead):
         s_list.append(s)
         sd_list.append(sd)
         sdd_list.append(sdd)
-        if final and (res == ruckig.Result.Finished or (end - s < 1e-12 and abs(sd) < 1e-12)):
-            break
+        if final and (res == ruckig.Result.Finished or (end - s < 1e-9 and abs(sd) < 1e-6)):
+            break  # at the end and at rest (1 nm, 1 µm/s)
+    else:
+        raise InputError(f"the governed progress did not reach the end of the path within {max_time:.0f} s "
+                         f"(at s = {s:.4g} of {end:.4g} m, ṡ = {sd:.3g} m/s): the admissible speed there "
+                         "is too small to plan; shorten the path before the singularity or raise the limits",
+                         argument="path", value=None)
     s_arr = np.array(s_list)
     s_arr[-1] = end
     sd_arr = np.array(sd_list)

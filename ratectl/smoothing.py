@@ -97,6 +97,14 @@ class VelocityFilter:
         self._inp.target_acceleration = z
         self._ta_set = False
 
+    def _calculate(self):
+        """One Ruckig update; a RuckigError exception (the Python binding raises some
+        failures instead of returning them) becomes an error result."""
+        try:
+            return self._otg.update(self._inp, self._out)
+        except self._ruckig.RuckigError as exc:
+            return exc
+
     @property
     def velocity(self) -> np.ndarray:
         return np.array(self._inp.current_velocity)
@@ -132,12 +140,23 @@ class VelocityFilter:
         vt = np.minimum(np.maximum(qd_target, self._neg_vmax), self.vmax)  # (np.clip is slower)
         inp.target_velocity = vt.tolist()
         if qdd_target is not None:
-            inp.target_acceleration = np.minimum(np.maximum(qdd_target, -self.amax), self.amax).tolist()
+            ta = np.minimum(np.maximum(qdd_target, -self.amax), self.amax)
+            if independent is not None:
+                ta = np.where(independent, 0.0, ta)  # a braking joint arrives at rest acceleration
+            inp.target_acceleration = ta.tolist()
             self._ta_set = True
         elif self._ta_set:
             inp.target_acceleration = [0.0] * self.dof
             self._ta_set = False
-        res = self._otg.update(inp, self._out)
+        res = self._calculate()
+        if res not in self._ok:
+            # Ruckig cannot always synchronise target accelerations (its step 2): fall back
+            # to reaching the target velocities at rest acceleration, each joint on its own
+            inp.target_acceleration = [0.0] * self.dof
+            self._ta_set = True
+            inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
+            self._per_dof = True
+            res = self._calculate()
         if res not in self._ok:
             raise SolverError(f"Ruckig velocity filter failed: {res}", status=res,
                               problem={"target_velocity": vt, "velocity": inp.current_velocity,

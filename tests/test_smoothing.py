@@ -123,3 +123,51 @@ def test_stopping_distance_is_ruckigs_stop():
     # already braking (a < 0) is counted as not braking: an upper bound
     assert stopping_distance(1.0, -5.0, 10.0, 100.0) >= stop([0.0], [1.0], qdd=[-5.0], amax=10.0,
                                                              jmax=100.0).goal[0]
+
+
+def test_velocity_filter_recovers_when_ruckig_cannot_synchronise():
+    """A state Ruckig's time synchronisation rejects (RuckigError in its step 2, met on an
+    iiwa7 path): the filter falls back to per-joint motion at rest acceleration instead of
+    raising in the user's loop."""
+    f = VelocityFilter(7, dt=2e-3, vmax=[1.71, 1.71, 1.745, 2.269, 2.443, 3.142, 3.142], amax=10.0,
+                       jmax=100.0)
+    f.reset(qd=[-0.05971649383830478, -0.1309192623430496, -0.01776901275928095, -0.09123812916814403,
+                -0.0645469463746311, 0.1863866460653286, 0.02585491503439401],
+            qdd=[0.6559873238200018, 1.453979502924527, -0.06743863867464162, 1.901289305619291,
+                 0.1886920668585949, -3.334979174657568, -0.9202237525438611])
+    q = np.array([-0.8255628818929327, 0.2930138494979546, 0.01055071203163725, -2.092736463619235,
+                  1.967363485251749, -1.354263458469058, 2.122630406070826])
+    target_v = np.array([-0.03492209222939317, -0.07787573730150685, -0.02008939487198102, 0.0,
+                         -0.05674084556935555, 0.1244640283164932, -0.007660046111202121])
+    target_a = np.array([0.2839640561025369, 0.6338189802723715, 0.004277038877578687, 1.085692223790069,
+                         0.1530498126567359, -1.334530973895465, -0.2844689377390353])
+    braking = np.array([False, False, False, True, False, False, False])  # joint 4 brakes alone
+    q1, qd1, qdd1 = f.update(q, target_v, target_a, independent=braking)
+    assert np.all(np.isfinite(q1)) and np.all(np.abs(qdd1) <= 10.0 + 1e-9)
+
+
+class _FailingOTG:
+    """Stands in for ruckig.Ruckig: every update raises, as the binding does on some inputs."""
+
+    def __init__(self, real):
+        self.delta_time = real.delta_time
+
+    def update(self, inp, out):
+        import ruckig
+
+        raise ruckig.RuckigError("[ruckig] error in step 2 (test double)")
+
+
+def test_a_failing_filter_raises_a_ratectl_error_and_the_controller_halts():
+    from ratectl.errors import SolverError
+
+    arm = rc.robots.ur5e()
+    f = VelocityFilter(6, dt=1e-3, vmax=arm.vmax, amax=arm.amax, jmax=arm.jmax)
+    f._otg = _FailingOTG(f._otg)
+    with pytest.raises(SolverError, match="Ruckig velocity filter failed"):
+        f.update(np.zeros(6), np.full(6, 0.1))
+    ctrl = rc.ResolvedRateController(arm, smoothing=f)
+    q = np.array([0.0, -1.2, 1.4, -1.8, 0.9, 0.3])
+    cmd = ctrl.step(q, twist=np.array([0.05, 0, 0, 0, 0, 0]), dt=1e-3)  # must not raise
+    assert cmd.status == "halted" and "smoothing failed" in cmd.reason
+    assert np.all(np.isfinite(cmd.qd))
