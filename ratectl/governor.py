@@ -37,7 +37,11 @@ How (all done once, before the motion — :func:`plan`):
 4. **Check.** The discrete joint motion the executor will command (secant velocities
    between planned configurations and their differences) is checked against the
    limits; if any exceeds ``check_fraction`` of a limit, the margins shrink by 15 %
-   and steps 2–3 are repeated (at most ``max_iterations`` times). With
+   (and, for an acceleration excess, the progress acceleration by 40 %: q̈ contains
+   q's̈, which only a smaller s̈ reduces where |q'| is large) and steps 2–3 are repeated
+   (at most ``max_iterations`` times). A joint path that ends at a singularity is
+   trimmed back to where σ_min ≥ 3·``sigma_tolerance`` (closer, q' ~ 1/σ makes the
+   timing meaningless). With
    ``check_jerk`` (used when a jerk-limited smoother executes the plan) the planned
    joint jerk is checked against jmax as well, halving the progress jerk until it fits.
    A joint path that crosses a joint *position* limit is reported in the plan's message
@@ -312,17 +316,14 @@ def _accel_mvc(a, b, c):
 
 
 def _topp(jp: JointPath, vlim, alim, path_speed, path_acc):
-    """Fastest x = ṡ² profile on the grid, at rest at both ends: the forward pass builds
-    the admissible acceleration from rest into x(s), the backward pass the admissible
-    deceleration to rest at the end (and before every dip of the limit curve)."""
+    """Fastest x = ṡ² profile on the grid; both ends are left to the limits (the
+    jerk-limited executor starts and ends at rest by itself)."""
     a, b, c, xv = _constraints(jp, vlim, alim, path_speed, path_acc)
     mvc = np.minimum(xv, _accel_mvc(a, b, c))
     S = jp.s
     N = len(S)
     x = np.empty(N)
-    x[0] = 0.0  # start and end at rest: the passes then build admissible ramps into x(s)
-    mvc = mvc.copy()
-    mvc[-1] = 0.0
+    x[0] = mvc[0]  # the jerk-limited executor starts from rest by itself
     for k in range(N - 1):
         h = S[k + 1] - S[k]
         _, hi = _u_bounds(a[k], b[k], c[k], np.array(x[k]))
@@ -445,12 +446,11 @@ class Governor:
         jmax = np.where(np.isfinite(chain.jmax), chain.jmax, 1e10)
         jerk = self.jerk or path.jerk or 20.0 * path.acceleration
         vm, am = self.velocity_margin, self.acceleration_margin
+        acc = path.acceleration
         best = None
         for it in range(self.max_iterations):
-            x, mvc = _topp(jp, vm * vmax, am * amax, path.speed, path.acceleration)
-            rows = _constraints(jp, vm * vmax, am * amax, path.speed, path.acceleration)[:3]
-            s, sd, sdd = _track(jp, x, dt=dt, acc=path.acceleration, jerk=jerk, lookahead=self.lookahead,
-                                rows=rows)
+            x, mvc = _topp(jp, vm * vmax, am * amax, path.speed, acc)
+            s, sd, sdd = _track(jp, x, dt=dt, acc=acc, jerk=jerk, lookahead=self.lookahead)
             q = jp.interpolate(s)
             qd = np.zeros_like(q)
             qd[:-1] = np.diff(q, axis=0) / dt
@@ -459,16 +459,19 @@ class Governor:
                 rv = float(np.max(np.abs(qd) / vmax))
                 ra = float(np.max(np.abs(qdd) / amax))
                 rj = float(np.max(np.abs(np.diff(qdd, axis=0)) / dt / jmax)) if self.check_jerk else 0.0
-            best = (x, s, sd, sdd, q, qd, rv, ra, (vm, am), it + 1, jerk, rj)
+            best = (x, s, sd, sdd, q, qd, rv, ra, (vm, am), it + 1, jerk, rj, acc)
             if rv <= self.check_fraction and ra <= self.check_fraction and rj <= self.check_fraction:
                 break
             if rv > self.check_fraction:
                 vm *= 0.85
             if ra > self.check_fraction:
                 am *= 0.85
+                # q̈ = q' s̈ + q'' ṡ²: where |q'| is large (near a singularity) the progress
+                # acceleration itself must come down, not only the speed
+                acc *= 0.6
             if rj > self.check_fraction:
                 jerk *= 0.5
-        x, s, sd, sdd, q, qd, rv, ra, margins, iters, jerk, rj = best
+        x, s, sd, sdd, q, qd, rv, ra, margins, iters, jerk, rj, acc = best
         t = np.arange(len(s)) * dt
         complete = jp.complete
         message = jp.message
@@ -486,7 +489,8 @@ class Governor:
         return GovernorPlan(dt=dt, t=t, s=s, sd=sd, sdd=sdd, q=q, qd_ff=qd, joint_path=jp, x_limit=x,
                             nominal_duration=path.duration, duration=float(t[-1]), velocity_ratio=rv,
                             acceleration_ratio=ra, margins=margins, complete=complete, message=message,
-                            info={"iterations": iters, "jerk": jerk, "grid_points": len(jp.s),
+                            info={"iterations": iters, "jerk": jerk, "acceleration": acc,
+                                  "grid_points": len(jp.s),
                                   "jerk_ratio": rj if self.check_jerk else None})
 
 
@@ -502,18 +506,12 @@ def _trim_singular_end(jp: JointPath, sigma: float) -> JointPath:
                      jp.message)
 
 
-def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead, rows=None):
+def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead):
     """Jerk-limited progress with 1-D Ruckig, |s̈| ≤ acc, |s⃛| ≤ jerk. Away from the end the
     velocity interface follows a target speed — the smallest admissible ṡ over a look-ahead
     window ahead of s, so the progress slows before every dip of the admissible speed;
     near the end the position interface brings s to the end of the joint path at rest
-    (its velocity limit still capped the same way).
-
-    With ``rows`` = (a, b, c) of :func:`_constraints`, the progress acceleration is also
-    held, every period, inside the interval of s̈ that the joint acceleration limits allow
-    at the current speed over the window (a u + b ṡ² ≤ c): where q' is large (near a
-    singularity) a path acceleration that is harmless elsewhere would ask q̈ = q' s̈ beyond
-    amax."""
+    (its velocity limit still capped the same way)."""
     import ruckig
 
     S = jp.s
@@ -527,10 +525,7 @@ def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead, rows=None):
     inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [0.0], [0.0]
     inp.target_position, inp.target_velocity, inp.target_acceleration = [end], [0.0], [0.0]
     inp.max_acceleration, inp.max_jerk = [acc], [jerk]
-    inp.min_acceleration = [-acc]
     vfloor = 1e-7
-    if rows is not None:
-        ra, rb, rc = rows
     s_list, sd_list, sdd_list = [0.0], [0.0], [0.0]
     s, sd, sdd = 0.0, 0.0, 0.0
     final = False
@@ -545,8 +540,7 @@ def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead, rows=None):
             cap = min(cap, float(np.min(sdmax[i0 + 1:i1])))
         cap = max(cap, vfloor)
         if not final:
-            dec = acc if rows is None else max(-float(inp.min_acceleration[0]), 1e-3 * acc)
-            brake = sd * sd / (2.0 * dec) + sd * (dec / jerk + 2.0 * dt) + 0.5 * abs(sdd) ** 3 / (dec * jerk)
+            brake = sd * sd / (2.0 * acc) + sd * (acc / jerk + 2.0 * dt) + 0.5 * abs(sdd) ** 3 / (acc * jerk)
             if end - s <= 1.5 * brake + 1e-9:
                 final = True
                 inp.control_interface = ruckig.ControlInterface.Position
@@ -555,13 +549,6 @@ def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead, rows=None):
             inp.max_velocity = [cap]
         else:
             inp.target_velocity = [cap]
-        if rows is not None:
-            j0, j1 = i0, max(i1, i0 + 1)
-            lo_u, hi_u = _u_bounds(ra[j0:j1 + 1], rb[j0:j1 + 1], rc[j0:j1 + 1],
-                                   np.full(min(j1 + 1, len(S)) - j0, sd * sd))
-            floor = 1e-3 * acc
-            inp.max_acceleration = [min(acc, max(float(np.min(hi_u)), floor))]
-            inp.min_acceleration = [-min(acc, max(-float(np.max(lo_u)), floor))]
         res = otg.update(inp, out)
         if res not in (ruckig.Result.Working, ruckig.Result.Finished):
             raise InputError(f"the progress generator failed (Ruckig {res}); check the path limits",
