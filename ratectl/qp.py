@@ -695,11 +695,24 @@ def _box_active_set(P, b, lo, hi, x0, max_iter: int = 4, lists=None):
     a solve fails (the caller then uses the backend).
     """
     n = x0.shape[0]
+    x0l, lol, hil = (x0.tolist(), lo.tolist(), hi.tolist()) if lists is None else lists
+    state = [1 if x0l[i] > hil[i] else (-1 if x0l[i] < lol[i] else 0) for i in range(n)]
+    held = [i for i in range(n) if state[i]]
+    if len(held) == 1:
+        # the common case, one joint over its bound: its column of P⁻¹ is all that is
+        # needed, and the multiplier −(x0_a − f)/(P⁻¹)_aa has the right sign by construction
+        a = held[0]
+        f = hil[a] if state[a] > 0 else lol[a]
+        _, col, info = _dposv(P, _eye(n)[a])
+        if info == 0:
+            x = x0 - col * ((x0l[a] - f) / float(col[a]))
+            x[a] = f
+            xl = x.tolist()
+            if all(lol[i] <= xl[i] <= hil[i] for i in range(n)):
+                return x, state, 1
     _, Pinv, info = _dposv(P, _eye(n))
     if info != 0:
         return None, None, 0
-    x0l, lol, hil = (x0.tolist(), lo.tolist(), hi.tolist()) if lists is None else lists
-    state = [1 if x0l[i] > hil[i] else (-1 if x0l[i] < lol[i] else 0) for i in range(n)]
     kkt = 1e-10 * (1.0 + max(map(abs, b.tolist())))
     for it in range(1, max_iter + 1):
         A = [i for i in range(n) if state[i]]
