@@ -684,7 +684,8 @@ def _box_active_set(P, b, lo, hi, x0, max_iter: int = 4, lists=None):
 
         x = x0 − P⁻¹E S⁻¹ (x0_A − f),   S = (P⁻¹)_AA,   g = Px − b = −E S⁻¹ (x0_A − f),
 
-    so each step is one small solve of size |A| (a division when one joint is held).
+    so each step is one Cholesky solve for the held columns P⁻¹E and one small solve of
+    size |A| (a division when one joint is held, the common case).
     The working set starts as the bounds x0 violates; free joints that leave the box
     join it, and held joints whose multiplier has the wrong sign (g > 0 at an upper
     bound, g < 0 at a lower one) leave it. When neither happens the KKT conditions hold
@@ -697,42 +698,33 @@ def _box_active_set(P, b, lo, hi, x0, max_iter: int = 4, lists=None):
     n = x0.shape[0]
     x0l, lol, hil = (x0.tolist(), lo.tolist(), hi.tolist()) if lists is None else lists
     state = [1 if x0l[i] > hil[i] else (-1 if x0l[i] < lol[i] else 0) for i in range(n)]
-    held = [i for i in range(n) if state[i]]
-    if len(held) == 1:
-        # the common case, one joint over its bound: its column of P⁻¹ is all that is
-        # needed, and the multiplier −(x0_a − f)/(P⁻¹)_aa has the right sign by construction
-        a = held[0]
-        f = hil[a] if state[a] > 0 else lol[a]
-        _, col, info = _dposv(P, _eye(n)[a])
-        if info == 0:
-            x = x0 - col * ((x0l[a] - f) / float(col[a]))
-            x[a] = f
-            xl = x.tolist()
-            if all(lol[i] <= xl[i] <= hil[i] for i in range(n)):
-                return x, state, 1
-    _, Pinv, info = _dposv(P, _eye(n))
-    if info != 0:
-        return None, None, 0
-    kkt = 1e-10 * (1.0 + max(map(abs, b.tolist())))
+    kkt = None
+    eye = _eye(n)
     for it in range(1, max_iter + 1):
         A = [i for i in range(n) if state[i]]
-        fix = [hil[i] if state[i] > 0 else lol[i] for i in A]
         if not A:
             return x0, state, it
-        if len(A) == 1:
+        fix = [hil[i] if state[i] > 0 else lol[i] for i in A]
+        # only the held columns of P⁻¹ are needed: P⁻¹E from one Cholesky solve
+        if len(A) == 1:  # the common case: S is (P⁻¹)_aa, a division
             a = A[0]
-            coef = [(x0l[a] - fix[0]) / float(Pinv[a, a])]
-            x = x0 - Pinv[:, a] * coef[0]
+            _, col, info = _dposv(P, eye[a])
+            if info != 0:
+                return None, None, it
+            coef = [(x0l[a] - fix[0]) / float(col[a])]
+            x = x0 - col * coef[0]
         else:
-            S = Pinv[A][:, A]
-            _, c, info = _dposv(S, np.array([x0l[i] - f for i, f in zip(A, fix, strict=True)]))
+            _, cols, info = _dposv(P, eye[:, A])
+            if info != 0:
+                return None, None, it
+            _, c, info = _dposv(cols[A], np.array([x0l[i] - f for i, f in zip(A, fix, strict=True)]))
             if info != 0:
                 return None, None, it
             coef = c.tolist()
-            x = x0 - _dot(Pinv[:, A], c)
-        xl = x.tolist()
+            x = x0 - _dot(cols, c)
         for i, f in zip(A, fix, strict=True):
-            xl[i] = f  # held joints sit exactly on their bound
+            x[i] = f  # held joints sit exactly on their bound
+        xl = x.tolist()
         moved = False
         for i in range(n):
             if state[i] == 0:
@@ -744,13 +736,15 @@ def _box_active_set(P, b, lo, hi, x0, max_iter: int = 4, lists=None):
                     moved = True
         if moved:
             continue
+        if kkt is None:
+            kkt = 1e-10 * (1.0 + max(map(abs, b.tolist())))
         for j, i in enumerate(A):
             g = -coef[j]
             if (state[i] > 0 and g > kkt) or (state[i] < 0 and g < -kkt):
                 state[i] = 0
                 moved = True
         if not moved:
-            return np.array(xl), state, it
+            return x, state, it
     return None, None, max_iter
 
 
