@@ -35,6 +35,7 @@ from functools import cached_property
 import numpy as np
 
 from .errors import InputError, RatectlError, SingularityError
+from .smoothing import VelocityFilter, braking_speed, stopping_distance
 
 __all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver"]
 
@@ -241,8 +242,6 @@ class ResolvedRateController:
         self._smoothing_option = smoothing
         self.filter = None
         if smoothing is not False and smoothing is not None:
-            from .smoothing import VelocityFilter
-
             if smoothing is True:
                 self._check_finite_limits()
                 self.filter = VelocityFilter(n, dt=1e-3, vmax=chain.vmax, amax=chain.amax, jmax=chain.jmax)
@@ -256,8 +255,6 @@ class ResolvedRateController:
                                  argument="smoothing", value=smoothing)
             if self.limits is not None and self._has_p:
                 # a jerk-limited joint needs more room to stop: widen the "near a limit" gate
-                from .smoothing import stopping_distance
-
                 f = self.filter
                 self._pbrake = np.maximum(self._pbrake,
                                           stopping_distance(f.vmax, f.amax, f.amax, f.jmax))
@@ -470,9 +467,9 @@ class ResolvedRateController:
                 flags.insert(0, "joint-limit")
                 reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
                 active.append("position")
-        self._braking = None
+        braking = None
         if self.filter is not None and near:
-            qd = self._jerk_limited_position_guard(q, qd, dt, flags, reasons, active)
+            qd, braking = self._jerk_limited_position_guard(q, qd, dt, flags, reasons, active)
         if res.damping > 0.0 and not (enforcing and smin >= self.singular_sigma):
             # a QP's λ is a constant regulariser: it is reported only near a singularity
             flags.append("damped")
@@ -487,7 +484,7 @@ class ResolvedRateController:
             if abs(self.filter.dt - dt) > 1e-15:
                 self.filter.dt = dt
             try:
-                q_next, qd, qdd = self.filter.update(q, qd, qdd_ff, independent=self._braking)
+                q_next, qd, qdd = self.filter.update(q, qd, qdd_ff, independent=braking)
             except RatectlError as err:
                 return self._halt(q, dt, f"smoothing failed: {err}", error=e, ep=ep, eo=eo)
         else:
@@ -523,9 +520,8 @@ class ResolvedRateController:
         stopping_distance`) no longer fits in the room left, the command towards that
         limit is 0 now (Ruckig then brakes time-optimally); otherwise it is at most
         :func:`~ratectl.smoothing.braking_speed` of the room. The same mirrored towards
-        the lower limit."""
-        from .smoothing import braking_speed, stopping_distance
-
+        the lower limit. Returns (q̇, braking): the joints that must stop, which the filter
+        then moves time-optimally on their own instead of synchronised with the others."""
         f = self.filter
         A, Jm = f.amax, f.jmax
         v, a = self._qd, self._qdd
@@ -546,14 +542,13 @@ class ResolvedRateController:
         lo_v = np.where(stop_lo, 0.0, -braking_speed(room_lo, A, Jm))
         clipped = np.minimum(np.maximum(qd, lo_v), hi_v)
         changed = clipped != qd
-        self._braking = stop_up | stop_lo  # brake time-optimally, not stretched to the others
         if changed.any():
             joints = np.flatnonzero(changed).tolist()
             if "joint-limit" not in flags:
                 flags.insert(0, "joint-limit")
             reasons.insert(0, f"joint(s) {joints} braking for a position limit (jerk-limited stop)")
             active.append("position")
-        return clipped
+        return clipped, stop_up | stop_lo  # the braking joints stop time-optimally, on their own
 
     def _report_solver_limits(self, res, qd, smin, flags, reasons, scale):
         """Flags and reasons for a solver that enforces the limits itself (the QP): which
