@@ -4,7 +4,7 @@ The loop tracks a moving target (a 5 cm circle at 0.2 m/s) with feed-forward twi
 feedback, exactly as a user's control loop would, and times each ``step`` call:
 default solver (AdaptiveDLS) with and without Ruckig smoothing, plus the fixed-λ DLS and
 the exact inverse for reference. Also times the governor's planning of the demo's line
-(``ratectl.demo.wrist_line``: UR5e, past the wrist singularity) and a whole ``follow`` run.
+(``ratectl.cli.demo.wrist_line``: UR5e, past the wrist singularity) and a whole ``follow`` run.
 
 Run:  python benchmarks/bench_controller.py [--steps N]
 Prints median / 90th-percentile µs per step. Target: ≤ 60 µs median with smoothing.
@@ -70,8 +70,8 @@ def main() -> None:
         print(f"  {name:45s} {np.median(us):7.1f} / {np.percentile(us, 90):7.1f}   statuses {st}")
 
     # governor planning and a whole follow run on the demo's line past the wrist singularity
-    from ratectl.demo import wrist_line
-    from ratectl.governor import Governor
+    from ratectl.cli.demo import wrist_line
+    from ratectl.planning import Governor
 
     scenario = wrist_line("ur5e")
     line, qs = scenario.path, scenario.q0

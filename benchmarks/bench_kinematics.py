@@ -94,7 +94,7 @@ def bench_mujoco(chain, q):
     try:
         import mujoco
 
-        from ratectl.mujoco import to_mjcf
+        from ratectl.interop.mujoco import to_mjcf
     except Exception:  # noqa: BLE001 - optional
         return None
     model = mujoco.MjModel.from_xml_string(to_mjcf(chain))
@@ -165,7 +165,7 @@ def main(argv=None) -> None:
     if mj is not None:
         print(f"  mujoco kinematics+comPos+jacSite {mj:6.2f} µs (ratectl/mujoco time {ours / mj:.2f}x)")
     else:
-        print("  mujoco comparison unavailable (needs ratectl.mujoco.to_mjcf and mujoco)")
+        print("  mujoco comparison unavailable (needs ratectl.interop.mujoco.to_mjcf and mujoco)")
 
 
 if __name__ == "__main__":

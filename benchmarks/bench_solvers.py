@@ -146,7 +146,7 @@ def _mink_rows(ur, q, xi):
         import mujoco
         import qpsolvers
 
-        from ratectl.mujoco import to_mjcf
+        from ratectl.interop.mujoco import to_mjcf
     except ImportError:
         return []
     model = mujoco.MjModel.from_xml_string(to_mjcf(ur))

@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from conftest import WRIST_DIRECTION, WRIST_HALF, WRIST_Q_CLOSEST  # noqa: E402
 
 import ratectl as rc  # noqa: E402
-from ratectl.governor import joint_path  # noqa: E402
+from ratectl.planning import joint_path  # noqa: E402
 
 DT = 2e-3
 

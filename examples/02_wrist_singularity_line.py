@@ -5,7 +5,7 @@ A UR5e follows a straight line at constant orientation (0.3 m at 0.2 m/s) that p
 joints 4 and 6 by about π while the tool passes the closest point: the exact inverse
 needs about 40 rad/s there, thirteen times the UR5e's 3.14 rad/s.
 
-The same comparison runs behind ``ratectl demo`` (``ratectl.demo.compare``):
+The same comparison runs behind ``ratectl demo`` (``ratectl.cli.demo.compare``):
 
 * exact inverse  — follows the line but far beyond the velocity and acceleration limits;
 * DLS (λ = 0.05) and adaptive DLS — stay within the speed limit by *not* turning the wrist:
@@ -26,7 +26,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ratectl import demo
+from ratectl.cli import demo
 
 FAST = os.environ.get("RATECTL_FAST") == "1"
 OUT = Path(__file__).resolve().parent / "out"

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 import ratectl as rc
-from ratectl.offscreen_gl import pick_gl_backend
+from ratectl.interop.offscreen_gl import pick_gl_backend
 
 FAST = os.environ.get("RATECTL_FAST") == "1"
 OUT = Path(__file__).parent / "out"
@@ -30,7 +30,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import mujoco  # noqa: E402
 
-from ratectl.mujoco import render_frames, simulate, to_mjcf  # noqa: E402
+from ratectl.interop.mujoco import render_frames, simulate, to_mjcf  # noqa: E402
 
 
 def wrist_line(arm):

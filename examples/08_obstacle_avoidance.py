@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 import ratectl as rc
-from ratectl.offscreen_gl import pick_gl_backend
+from ratectl.interop.offscreen_gl import pick_gl_backend
 
 FAST = os.environ.get("RATECTL_FAST") == "1"
 OUT = Path(__file__).parent / "out"
@@ -32,7 +32,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import mink  # noqa: E402
 import mujoco  # noqa: E402
 
-from ratectl.mujoco import MinkKinematics, MinkLimitedSolver, geom_distance, render_frames, to_mjcf  # noqa: E402
+from ratectl.interop.mujoco import MinkKinematics, MinkLimitedSolver, geom_distance, render_frames, to_mjcf  # noqa: E402
 
 MARGIN = 0.02      # configured minimum distance [m]
 DT = 0.01          # control period [s]

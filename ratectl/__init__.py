@@ -1,19 +1,31 @@
 """ratectl — resolved-rate motion control for serial robot arms.
 
-Jacobian core → singularity analysis → inverse velocity (exact, damped, QP) →
-resolved-rate controller and path following → Ruckig smoothing.
+The package follows the data flow of a control cycle, one subpackage per stage:
 
-The core (``DH``, ``MDH``, ``Chain``, ``robots``, ``spatial``) is imported eagerly;
-the rest is imported on first use, so ``import ratectl`` stays cheap and optional
-extras (matplotlib, mujoco) are only needed by the functions that use them.
+    model ─► kinematics ─► singularity ─► solvers ─► control ─► paths/planning ─► execution
+
+* :mod:`ratectl.model` — joints (DH, MDH), the :class:`Chain`, built-in robots, limits;
+* :mod:`ratectl.io` — URDF and MJCF readers behind a safe XML parser;
+* :mod:`ratectl.kinematics` — generated fk/Jacobian kernels, J̇, the Hessian;
+* :mod:`ratectl.singularity` — measures, classification, reports, scans, maps;
+* :mod:`ratectl.solvers` — exact, pseudo-inverse, damped, null-space and QP inverse velocity;
+* :mod:`ratectl.control` — the resolved-rate controller, its command, Ruckig smoothing;
+* :mod:`ratectl.paths` — lines, arcs, blended waypoints and their time laws;
+* :mod:`ratectl.planning` — inverse kinematics, joint paths, the path-speed governor;
+* :mod:`ratectl.execution` — :func:`follow` and the :class:`Execution` record;
+* :mod:`ratectl.interop` — MuJoCo and mink;
+* :mod:`ratectl.cli` — the ``ratectl`` command and its demo.
+
+The core (model, kinematics, spatial, errors) is imported eagerly; the rest on first
+use, so ``import ratectl`` stays cheap and optional extras (matplotlib, mujoco) are
+only needed by the functions that use them.
 """
 
 from __future__ import annotations
 
 import importlib
 
-from . import errors, kinematics, robots, spatial
-from .chain import DH, MDH, Chain, Joint
+from . import errors, kinematics, spatial
 from .errors import (
     ImportModelError,
     InputError,
@@ -22,6 +34,8 @@ from .errors import (
     SingularityError,
     SolverError,
 )
+from .model import DH, MDH, Chain, Joint, robots
+from .model.limits import Limits
 
 __version__ = "0.1.0"
 
@@ -35,23 +49,25 @@ _LAZY_ATTRS = {
     "SingularityReport": "singularity",
     "manipulability_gradient": "singularity",
     "workspace_map": "singularity",
-    "ResolvedRateController": "controller",
-    "Command": "controller",
-    "follow": "follow",
+    "ResolvedRateController": "control",
+    "Command": "control",
+    "ik": "planning",
+    "IKResult": "planning",
+    "Governor": "planning",
+    "follow": "execution",
     "Execution": "execution",
 }
-_LAZY_MODULES = ("solvers", "qp", "singularity", "controller", "paths", "smoothing", "governor",
-                 "follow", "execution", "importers", "mujoco", "cli", "hessian", "demo", "offscreen_gl")
+_LAZY_MODULES = ("io", "singularity", "solvers", "control", "paths", "planning", "execution", "interop",
+                 "cli")
 
 __all__ = [
-    "DH", "MDH", "Chain", "Joint", "errors", "kinematics", "robots", "spatial",
+    "DH", "MDH", "Chain", "Joint", "Limits", "errors", "kinematics", "robots", "spatial",
     "RatectlError", "ModelError", "InputError", "SingularityError", "SolverError",
     "ImportModelError", *_LAZY_ATTRS, *_LAZY_MODULES,
 ]
 
 
 def __getattr__(name: str):
-    # attributes first: ``follow`` is both a module and the function users call
     if name in _LAZY_ATTRS:
         module = importlib.import_module(f".{_LAZY_ATTRS[name]}", __name__)
         value = getattr(module, name)

@@ -1,6 +1,6 @@
 """Rotations and rigid transforms: SO(3) and SE(3) helpers.
 
-Conventions (see DESIGN.md §2):
+Conventions (fixed across the package):
 
 * SI units; angles in radians.
 * Twists are ``[v; ω]`` (linear first), rotation vectors are ``θ·axis``.
@@ -15,6 +15,8 @@ over the whole range; no ``arccos`` of an unclipped value is ever taken.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -34,6 +36,8 @@ __all__ = [
     "se3_exp",
     "se3_log",
     "pose_error",
+    "pose_error_into",
+    "rigid_transform_defect",
     "rotation_angle",
     "quat_from_rotation",
     "rotation_from_quat",
@@ -245,13 +249,79 @@ def pose_error(T_desired, T_actual) -> np.ndarray:
     """Servoing pose error ``e = [p_d − p ; log(R_d Rᵀ)]`` in base-frame axes, ``(..., 6)``.
 
     The rotational part is the rotation vector that takes the actual orientation to
-    the desired one, expressed in the base frame [rad]; the linear part [m].
+    the desired one, expressed in the base frame [rad] (exact, accurate near π); the
+    linear part [m]. This is the one pose error of the package: the controller, IK,
+    the governor and ``follow`` all call it (or :func:`pose_error_into`, its scalar
+    form).
     """
     Td = _as_array(T_desired, "T_desired", (4, 4))
     Ta = _as_array(T_actual, "T_actual", (4, 4))
+    if Td.shape == (4, 4) and Ta.shape == (4, 4):
+        out = np.empty(6)
+        pose_error_into(out, Td, Ta)
+        return out
     dp = Td[..., :3, 3] - Ta[..., :3, 3]
     Rerr = Td[..., :3, :3] @ np.swapaxes(Ta[..., :3, :3], -1, -2)
     return np.concatenate(np.broadcast_arrays(dp, so3_log(Rerr)), axis=-1)
+
+
+def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray) -> tuple[float, float]:
+    """:func:`pose_error` of one pair of (4, 4) poses written into ``out`` (6,).
+
+    Returns ``(‖p_d − p‖ [m], θ [rad])``, the norms of the two parts. The scalar
+    arithmetic avoids numpy's per-call cost on 3-vectors (this runs every control
+    cycle); the rotation angle is ``atan2(‖vee(R)‖, (tr R − 1)/2)`` and, past
+    ``cos θ < −0.9``, the axis comes from :func:`so3_log`'s symmetric-part branch.
+    """
+    out[0] = T_desired[0, 3] - T_actual[0, 3]
+    out[1] = T_desired[1, 3] - T_actual[1, 3]
+    out[2] = T_desired[2, 3] - T_actual[2, 3]
+    R = (T_desired[:3, :3] @ T_actual[:3, :3].T).tolist()
+    vx = 0.5 * (R[2][1] - R[1][2])
+    vy = 0.5 * (R[0][2] - R[2][0])
+    vz = 0.5 * (R[1][0] - R[0][1])
+    s = math.sqrt(vx * vx + vy * vy + vz * vz)
+    c = 0.5 * (R[0][0] + R[1][1] + R[2][2] - 1.0)
+    if c < -0.9:
+        out[3:] = so3_log(np.array(R))
+        th = math.sqrt(float(out[3] * out[3] + out[4] * out[4] + out[5] * out[5]))
+    else:
+        th = math.atan2(s, c)
+        f = th / s if th > _SMALL else 1.0 + th * th / 6.0
+        out[3] = f * vx
+        out[4] = f * vy
+        out[5] = f * vz
+    ep = math.sqrt(float(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]))
+    return ep, th
+
+
+def rigid_transform_defect(T, *, tolerance: float = 1e-6) -> str | None:
+    """What keeps ``T`` from being a rigid transform (4×4, finite, orthonormal rotation with
+    det +1, last row [0, 0, 0, 1]), as a phrase for an error message; None when it is one.
+
+    ``tolerance`` bounds max|RRᵀ − I| and |det R − 1|. A scaled rotation (‖R‖ ≠ 1) and a
+    mirror (det R = −1) are both refused.
+    """
+    try:
+        A = np.asarray(T, dtype=float)
+    except (TypeError, ValueError):
+        return f"is not a numeric array (got {type(T).__name__})"
+    if A.shape != (4, 4):
+        return f"must be a 4x4 homogeneous transform, got shape {A.shape}"
+    if not np.all(np.isfinite(A)):
+        return "is not a rigid transform: it contains NaN or infinite entries"
+    if np.any(A[3] != (0.0, 0.0, 0.0, 1.0)):
+        return f"is not a rigid transform: its last row must be [0, 0, 0, 1], got {A[3].tolist()}"
+    R = A[:3, :3]
+    ortho = float(np.max(np.abs(R @ R.T - np.eye(3))))
+    if ortho > tolerance:
+        return ("is not a rigid transform: its rotation block is not orthonormal "
+                f"(max|R Rᵀ − I| = {ortho:.3g}, allowed {tolerance:g}; scaled or sheared)")
+    det = float(np.linalg.det(R))
+    if abs(det - 1.0) > tolerance:
+        return (f"is not a rigid transform: its rotation block has det {det:+.6g}, must be +1 "
+                "(a mirror is not a rotation)")
+    return None
 
 
 def quat_from_rotation(R) -> np.ndarray:

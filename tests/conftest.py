@@ -39,7 +39,7 @@ WRIST_HALF = 0.15  # m on each side of the closest approach
 def ur5e_wrist_line():
     """(arm, line, q0): the line through the tool pose of WRIST_Q_CLOSEST and its start q
     on the same branch (integrated back from WRIST_Q_CLOSEST)."""
-    from ratectl.governor import joint_path
+    from ratectl.planning import joint_path
 
     arm = rc.robots.ur5e()
     T0 = arm.fk(WRIST_Q_CLOSEST)

@@ -1,4 +1,4 @@
-"""The ``ratectl`` command, called in-process through ``ratectl.cli.main``."""
+"""The ``ratectl`` command, called in-process through ``ratectl.cli.main.main``."""
 
 import contextlib
 import io
@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import ratectl as rc
-from ratectl import cli, demo
+from ratectl.cli import demo
+from ratectl.cli import main as cli
 
 DATA = Path(__file__).parent / "data"
 COMMANDS = ("demo", "info", "jacobian", "singularity", "scan")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import ratectl as rc
-from ratectl.controller import STATUSES, Command
+from ratectl.control import STATUSES, Command
 from ratectl.errors import InputError
 
 Q_REG = np.array([0.0, -1.2, 1.4, -1.8, 0.9, 0.3])   # a regular UR5e configuration

@@ -12,7 +12,7 @@ import pytest
 
 import ratectl as rc
 from ratectl.errors import InputError
-from ratectl.governor import joint_path
+from ratectl.planning import joint_path
 
 DT = 2e-3
 @pytest.fixture(scope="module")
@@ -59,7 +59,7 @@ def test_governor_completes_within_limits_and_on_the_line(ur5e, governed):
     d = line.end[:3, 3] - line.start[:3, 3]
     off = (p - line.start[:3, 3]) - np.outer((p - line.start[:3, 3]) @ d / (d @ d), d)
     assert np.max(np.linalg.norm(off, axis=1)) < 1e-3
-    assert run.statuses[0] in rc.controller.STATUSES
+    assert run.statuses[0] in rc.control.STATUSES
 
 
 def test_governor_final_pose_and_timing(ur5e, scenario, governed):
@@ -114,11 +114,9 @@ def _elbow_line(arm):
     d /= np.linalg.norm(d)
     T_start = T_end.copy()
     T_start[:3, 3] -= 0.1 * d
-    from ratectl.follow import _ik
-
-    q_start, ep, _ = _ik(arm, T_start, np.array([0.27, -1.28, 1.0, -1.33, 1.4, 0.23]))
-    assert ep < 1e-9
-    return rc.paths.Line(T_start, T_end, speed=0.2, acceleration=1.0), q_start
+    res = rc.ik(arm, T_start, np.array([0.27, -1.28, 1.0, -1.33, 1.4, 0.23]))
+    assert res.converged and res.position_error < 1e-9
+    return rc.paths.Line(T_start, T_end, speed=0.2, acceleration=1.0), np.array(res.q)
 
 
 def test_elbow_boundary_is_reported_and_handled(ur5e):
@@ -200,7 +198,7 @@ def test_joint_limit_on_a_path_is_held_and_reported():
     assert np.all(np.abs(run.qdd) <= arm.amax * (1 + 1e-6))
     assert not run.completed and run.max_orientation_error > math.radians(10)
     # the governor sees it coming and says so
-    plan = rc.governor.plan(arm, path, q0, dt=DT)
+    plan = rc.planning.plan(arm, path, q0, dt=DT)
     assert not plan.complete and "position limit of joint 6" in plan.message
 
 
@@ -279,7 +277,7 @@ def test_governor_bounds_the_progress_acceleration_where_q_prime_is_large():
                                         [-0.6392006892815677, 0.7543214955375963, 0.14973830569327498],
                                         [0.3295257291563194, 0.09272115072523275, 0.9395826637567259]])
     line = rc.paths.Line(T0, T1, speed=0.48940804487122, acceleration=2.4392279702545707)
-    plan = rc.governor.plan(arm, line, q0, dt=DT)
+    plan = rc.planning.plan(arm, line, q0, dt=DT)
     assert plan.acceleration_ratio <= 1.0 and plan.velocity_ratio <= 1.0, plan.message
     run = rc.follow(arm, line, q0, dt=DT)
     assert run.completed, run.message

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import ratectl as rc
-from ratectl.hessian import hessian_from_jacobian, jacobian_hessian, numerical_hessian
+from ratectl.kinematics.hessian import hessian_from_jacobian, jacobian_hessian, numerical_hessian
 
 
 def test_hessian_matches_finite_differences(arm, rng):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import ratectl as rc
-from ratectl.importers import axis_rotation
+from ratectl.io import axis_rotation
 
 mujoco = pytest.importorskip("mujoco")
 

@@ -10,7 +10,7 @@ import ratectl as rc
 mujoco = pytest.importorskip("mujoco")
 mink = pytest.importorskip("mink")
 
-from ratectl.mujoco import (  # noqa: E402
+from ratectl.interop.mujoco import (  # noqa: E402
     MinkKinematics,
     MinkLimitedSolver,
     geom_distance,
@@ -361,13 +361,13 @@ def test_pick_gl_backend_reports_none_when_nothing_renders():
     import sys
 
     code = ("import os; os.environ['MUJOCO_GL'] = 'no-such-backend'; "
-            "from ratectl.offscreen_gl import pick_gl_backend; print(pick_gl_backend())")
+            "from ratectl.interop.offscreen_gl import pick_gl_backend; print(pick_gl_backend())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0 and out.stdout.strip() == "None", out.stderr
 
 
 def test_pick_gl_backend_after_mujoco_is_imported_reports_what_is_in_force(monkeypatch):
-    from ratectl.offscreen_gl import pick_gl_backend
+    from ratectl.interop.offscreen_gl import pick_gl_backend
 
     monkeypatch.setenv("MUJOCO_GL", "egl")
     assert pick_gl_backend() == "egl"  # mujoco is already imported here: nothing is probed

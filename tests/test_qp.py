@@ -8,7 +8,7 @@ import qpsolvers
 import ratectl as rc
 from ratectl import solvers as S
 from ratectl.errors import InputError, SolverError
-from ratectl.qp import joint_velocity_bounds
+from ratectl.solvers.qp import joint_velocity_bounds
 
 BACKENDS = [b for b in ("osqp", "daqp", "quadprog", "proxqp") if b in qpsolvers.available_solvers]
 
@@ -160,7 +160,7 @@ def test_box_active_set_is_the_exact_optimum(rng):
 def test_box_active_set_kkt_certificate(rng):
     """Random strictly convex box QPs: when the active-set steps return, x is feasible and
     satisfies the KKT sign conditions; otherwise they decline (None)."""
-    from ratectl.qp import _box_active_set
+    from ratectl.solvers.qp.active_set import _box_active_set
 
     settled = 0
     for _ in range(300):

@@ -62,7 +62,9 @@ def test_axes_extracted_from_the_jacobian_are_the_joint_axes(arm, rng):
     # z_i = J_ω,i and p + z_i × J_v,i lies on the axis of revolute joint i
     q = arm.random_q(rng=rng)
     T, J = arm.fk_jacobian(q)
-    z, c = S._lines(J)
+    from ratectl.singularity.structure import _lines
+
+    z, c = _lines(J)
     axes, points = arm.joint_axes(q)
     for i in np.flatnonzero(~arm.prismatic):
         assert np.allclose(z[i], axes[i], atol=1e-12)

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import ratectl as rc
+from ratectl.control.smoothing import VelocityFilter, move, stop
 from ratectl.errors import InputError
-from ratectl.smoothing import VelocityFilter, move, stop
 
 
 def _check_limits(qd, qdd, dt, vmax, amax, jmax, *, rel=1e-6):
@@ -110,7 +110,7 @@ def test_smoothed_line_near_the_wrist_singularity(ur5e_wrist_line):
 
 def test_stopping_distance_is_ruckigs_stop():
     """The closed form equals the end of Ruckig's time-optimal stop, and braking_speed inverts it."""
-    from ratectl.smoothing import braking_speed, stopping_distance
+    from ratectl.model.limits import braking_speed, stopping_distance
 
     rng = np.random.default_rng(3)
     for _ in range(100):

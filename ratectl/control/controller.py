@@ -1,0 +1,495 @@
+"""The resolved-rate controller: one call per control cycle.
+
+``ctrl.step(q, target=T_des, twist=ξ_ff, dt=dt)`` computes
+
+    e  = [p_d − p ; log(R_d Rᵀ)]              (pose error, base axes)
+    ξ  = ξ_ff + K e                           (feed-forward plus proportional feedback)
+    q̇  = q̇_ff + solver(J(q), ξ)               (inverse velocity; q̇_ff optional)
+
+then applies the limits in this order: velocity (uniform scaling, which keeps the
+direction of motion), acceleration (the change of q̇ per cycle is scaled to fit
+amax·dt), joint position (each joint may only move as far as it can still stop before
+its limit at amax in whole periods: q̇ ≤ min(d/dt, a dt (√(1/4 + 2d/(a dt²)) − 1)),
+d = q_max − q, and the same towards q_min). A solver that enforces the limits itself
+(the QP, ``enforces_limits = True``) is not limited again: its bounds and any extra rows
+(collision limits) are kept as solved and only reported. Then the controller optionally
+smooths the result with a Ruckig velocity filter (jerk-limited) and integrates
+``q_next = q + q̇ dt`` (or Ruckig's exact integral).
+
+Every call returns a frozen :class:`Command` whose ``status`` says what happened
+(see :data:`STATUSES`). Bad *values* never raise in the loop: a non-finite q,
+target, twist or dt, a target older than ``timeout``, or a solver failure brings a
+**safe halt** — the previous q̇ decelerates to zero within the acceleration (and, with
+smoothing, jerk) limits — with the reason in ``Command.reason``. A non-finite input
+latches the halt until :meth:`ResolvedRateController.reset`; a stale target or a
+solver failure does not (the next good cycle resumes). Wrong *shapes* are programming
+errors and raise :class:`~ratectl.errors.InputError` at once.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import solvers
+from ..errors import InputError, RatectlError, SingularityError
+from ..model.limits import Limits, braking_speed, stopping_distance
+from ..spatial import pose_error_into
+from .command import _RANK, STATUSES, Command, _new_command
+from .smoothing import VelocityFilter
+
+__all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver"]
+
+def default_solver():
+    """The controller's default inverse-velocity solver: ``rc.solvers.AdaptiveDLS()``."""
+    return solvers.AdaptiveDLS()
+
+
+class ResolvedRateController:
+    """A stateful resolved-rate controller for a user's control loop.
+
+    Args:
+        chain: the arm (:class:`~ratectl.chain.Chain`).
+        solver: an inverse-velocity solver with ``.solve(J, xi, limits=, q=, qd_prev=, dt=)``
+            (default: :func:`default_solver`). The controller keeps the solver object, so a QP
+            solver stays warm-started between cycles.
+        gain: feedback gain K [1/s] on the pose error: a scalar or 6 values [linear ×3; angular ×3].
+        limits: ``"chain"`` (the chain's position, velocity, acceleration limits), ``None``
+            (no limits) or an object with arrays ``lower, upper, vmax, amax``.
+        smoothing: ``False``; ``True`` (a Ruckig :class:`~ratectl.smoothing.VelocityFilter` with the
+            chain's vmax, amax, jmax); or a ``VelocityFilter``.
+        position_tolerance [m], orientation_tolerance [rad]: "target reached" thresholds.
+        timeout: a target whose ``stamp`` is older than this [s] is stale (halt).
+        singular_sigma: below this σ_min a velocity-limited or failed solve is reported as
+            "singular" rather than "velocity-scaled".
+    """
+
+    def __init__(self, chain, *, solver=None, gain=10.0, limits="chain", smoothing=False,
+                 position_tolerance: float = 1e-4, orientation_tolerance: float = 1e-3,
+                 timeout: float = 0.1, singular_sigma: float = 0.02) -> None:
+
+        self.chain = chain
+        self._n = n = chain.dof
+        self.solver = default_solver() if solver is None else solver
+        if not callable(getattr(self.solver, "solve", None)):
+            raise InputError("solver must have a solve(J, xi, ...) method (see ratectl.solvers), "
+                             f"got {type(self.solver).__name__}", argument="solver", value=solver)
+        K = np.broadcast_to(np.asarray(gain, dtype=float), (6,)).copy() if np.ndim(gain) <= 1 else None
+        if K is None or not np.all(np.isfinite(K)) or np.any(K < 0):
+            raise InputError(f"gain must be a non-negative scalar or 6 values [1/s], got {gain!r}",
+                             argument="gain", value=gain)
+        self.gain = K
+        if isinstance(limits, str):
+            if limits != "chain":
+                raise InputError(f"limits must be 'chain', None or a limits object, got {limits!r}",
+                                 argument="limits", value=limits)
+            limits = chain
+        self.limits = None if limits is None else Limits.of(limits, n)
+        if self.limits is not None:
+            lim = self.limits
+            self._vmax = lim.vmax
+            self._amax = lim.amax
+            self._has_v = bool(np.any(np.isfinite(lim.vmax)))
+            self._has_a = bool(np.any(np.isfinite(lim.amax)))
+            self._has_p = bool(np.any(np.isfinite(lim.lower) | np.isfinite(lim.upper)))
+            big = 1e300
+            self._inv_vmax = np.where(np.isfinite(lim.vmax), 1.0 / lim.vmax, 0.0)
+            self._inv_amax = np.where(np.isfinite(lim.amax), 1.0 / lim.amax, 0.0)
+            self._amax_f = np.where(np.isfinite(lim.amax), lim.amax, big)
+            lo = np.where(np.isfinite(lim.lower), lim.lower, -big)
+            hi = np.where(np.isfinite(lim.upper), lim.upper, big)
+            self._plo, self._phi = lo, hi
+            self._pmid = np.where(np.isfinite(lim.lower) & np.isfinite(lim.upper), 0.5 * (lo + hi), 0.0)
+            self._phalf = np.where(self._pmid == 0.0, np.maximum(np.abs(lo), np.abs(hi)), 0.5 * (hi - lo))
+            vf = np.where(np.isfinite(lim.vmax), lim.vmax, big)
+            # distance within which a joint at full speed may need to brake
+            fin = np.isfinite(lim.vmax) & np.isfinite(lim.amax)
+            vfin = np.where(fin, vf, 0.0)
+            self._pbrake = np.where(fin, vfin**2 / (2.0 * np.where(fin, self._amax_f, 1.0)), big)
+            self._vf = vf
+            self._pthresh = None
+            self._pthresh_dt = None
+        else:
+            self._has_v = self._has_a = self._has_p = False
+        self._smoothing_option = smoothing
+        self.filter = None
+        if smoothing is not False and smoothing is not None:
+            if smoothing is True:
+                self._check_finite_limits()
+                self.filter = VelocityFilter(n, dt=1e-3, vmax=chain.vmax, amax=chain.amax, jmax=chain.jmax)
+            elif isinstance(smoothing, VelocityFilter):
+                self.filter = smoothing
+            else:
+                raise InputError("smoothing must be False, True or a ratectl.smoothing.VelocityFilter, "
+                                 f"got {smoothing!r}", argument="smoothing", value=smoothing)
+            if self.filter.dof != n:
+                raise InputError(f"the VelocityFilter has {self.filter.dof} joints, the chain {n}",
+                                 argument="smoothing", value=smoothing)
+            if self.limits is not None and self._has_p:
+                # a jerk-limited joint needs more room to stop: widen the "near a limit" gate
+                f = self.filter
+                self._pbrake = np.maximum(self._pbrake,
+                                          stopping_distance(f.vmax, f.amax, f.amax, f.jmax))
+        self.position_tolerance = float(position_tolerance)
+        self.orientation_tolerance = float(orientation_tolerance)
+        self.timeout = float(timeout)
+        self.singular_sigma = float(singular_sigma)
+        self._e = np.zeros(6)
+        self.reset()
+
+    def _check_finite_limits(self) -> None:
+        c = self.chain
+        for name in ("vmax", "amax", "jmax"):
+            a = getattr(c, name)
+            if not np.all(np.isfinite(a)):
+                raise InputError(f"smoothing=True needs finite {name} on every joint of {c.name!r}; set "
+                                 "them in the model or pass a VelocityFilter", argument="smoothing",
+                                 value=a)
+
+    # ------------------------------------------------------------------ state
+    def reset(self, qd=None) -> None:
+        """Forget the state: previous q̇ (default zero), halt latch, clock, smoother state."""
+        self._qd = np.zeros(self._n) if qd is None else np.asarray(qd, dtype=float).copy()
+        self._qdd = np.zeros(self._n)
+        self._q_last = None
+        self._latched = ""
+        self._dt_last = None
+        self.time = 0.0
+        if self.filter is not None:
+            self.filter.reset(self._qd)
+        reset = getattr(self.solver, "reset", None)
+        if callable(reset):
+            reset()
+
+    @property
+    def qd(self) -> np.ndarray:
+        """The last commanded joint velocity."""
+        return self._qd.copy()
+
+    @property
+    def halted(self) -> bool:
+        """True while a latched halt (non-finite input) is in force; cleared by :meth:`reset`."""
+        return bool(self._latched)
+
+    # ------------------------------------------------------------------ the cycle
+    def step(self, q, *, target=None, twist=None, dt, qd_ff=None, qdd_ff=None, stamp=None) -> Command:
+        """One control cycle (see the module docstring).
+
+        Args:
+            q: measured joint positions (n,).
+            target: desired tool pose T_des (4×4) or None (no feedback).
+            twist: feed-forward tool twist ξ_ff = [v; ω] (6,) [m/s; rad/s] or None.
+            dt: control period [s].
+            qd_ff: joint-velocity feed-forward (n,) added to the resolved rate (e.g. the
+                governor's planned q̇); ``twist`` is then the *extra* twist to resolve.
+            qdd_ff: joint-acceleration feed-forward (n,), used by the smoother only (Ruckig's
+                target acceleration, clipped to ±amax): with it the jerk-limited filter tracks a
+                planned motion without lag.
+            stamp: when the target was produced, on the controller clock ``ctrl.time`` [s];
+                older than ``timeout`` → halt (stale target).
+        """
+        n = self._n
+        # --- validation: shapes raise, values halt
+        if type(q) is not np.ndarray or q.dtype != np.float64:
+            try:
+                q = np.asarray(q, dtype=float)
+            except (TypeError, ValueError):
+                raise InputError(f"q must be {n} numbers", argument="q", value=q) from None
+        if q.shape != (n,):
+            raise InputError(f"q must have shape ({n},), got {q.shape}", argument="q", value=q)
+        try:
+            dt = float(dt)
+        except (TypeError, ValueError):
+            raise InputError(f"dt must be a number [s], got {dt!r}", argument="dt", value=dt) from None
+        if target is not None:
+            if type(target) is not np.ndarray or target.dtype != np.float64:
+                target = np.asarray(target, dtype=float)
+            if target.shape != (4, 4):
+                raise InputError(f"target must be a 4x4 pose, got shape {target.shape}",
+                                 argument="target", value=target)
+        if twist is not None:
+            if type(twist) is not np.ndarray or twist.dtype != np.float64:
+                twist = np.asarray(twist, dtype=float)
+            if twist.shape != (6,):
+                raise InputError(f"twist must have shape (6,) [v; ω], got {twist.shape}",
+                                 argument="twist", value=twist)
+        if qd_ff is not None:
+            qd_ff = np.asarray(qd_ff, dtype=float)
+            if qd_ff.shape != (n,):
+                raise InputError(f"qd_ff must have shape ({n},), got {qd_ff.shape}",
+                                 argument="qd_ff", value=qd_ff)
+
+        if not (dt > 0.0 and math.isfinite(dt)):
+            self._latched = self._latched or f"non-finite or non-positive dt ({dt!r})"
+            return self._halt(q, self._dt_last or 1e-3, self._latched)
+        self._dt_last = dt
+        if self._latched:
+            return self._halt(q, dt, self._latched)
+        bad = None
+        if not math.isfinite(q.sum()):
+            bad = "q"
+        elif target is not None and not math.isfinite(target.sum()):
+            bad = "target"
+        elif twist is not None and not math.isfinite(twist.sum()):
+            bad = "twist"
+        elif qd_ff is not None and not math.isfinite(qd_ff.sum()):
+            bad = "qd_ff"
+        if bad is not None:
+            self._latched = f"non-finite {bad} (NaN or inf); reset() to resume"
+            return self._halt(q, dt, self._latched)
+        if stamp is not None and target is not None:
+            age = self.time - float(stamp)
+            if not age <= self.timeout:
+                return self._halt(q, dt, f"stale target: {age:.3g} s old > timeout {self.timeout:.3g} s")
+
+        # --- resolved rate
+        T, J = self.chain.fk_jacobian(q)
+        e = self._e
+        if target is not None:
+            ep, eo = pose_error_into(e, target, T)
+            xi = self.gain * e
+            if twist is not None:
+                xi += twist
+        else:
+            e[:] = 0.0
+            ep = eo = 0.0
+            xi = twist.copy() if twist is not None else np.zeros(6)
+        if qd_ff is None:
+            q_s, qd_prev_s = q, self._qd
+        else:  # the solver resolves the correction on top of q̇_ff: shift its bounds accordingly
+            q_s, qd_prev_s = q + qd_ff * dt, self._qd - qd_ff
+        try:
+            res = self.solver.solve(J, xi, limits=self.limits, q=q_s, qd_prev=qd_prev_s, dt=dt)
+        except SingularityError as err:
+            return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
+                              error=e, ep=ep, eo=eo)
+        except (RatectlError, np.linalg.LinAlgError) as err:
+            return self._halt(q, dt, f"solver failed: {err}", error=e, ep=ep, eo=eo)
+        qd = res.qd if qd_ff is None else res.qd + qd_ff
+        if not math.isfinite(qd.sum()):
+            return self._halt(q, dt, "solver returned a non-finite q̇", error=e, ep=ep, eo=eo)
+
+        flags = []
+        reasons = []
+        active = list(res.limits_active)
+        scale = float(res.velocity_scale)
+        smin = float(res.sigma_min)
+        if res.velocity_policy != "none":
+            flags.append("velocity-scaled")
+        # --- limits
+        enforcing = getattr(self.solver, "enforces_limits", False)
+        if enforcing:
+            # the solver (the QP, possibly with extra rows such as collision limits) already
+            # bounds q̇ by the velocity, position and acceleration limits; limiting again here
+            # would move q̇ off its optimum and could break its extra rows
+            qd, scale = self._report_solver_limits(res, qd, smin, flags, reasons, scale)
+        elif self._has_v:
+            r = float((np.abs(qd) * self._inv_vmax).max())
+            if r > 1.0:
+                qd = qd / r
+                scale /= r
+                flags.append("velocity-scaled")
+                if "velocity" not in active:
+                    active.append("velocity")
+        if "velocity-scaled" in flags:
+            reasons.append(f"q̇ scaled by {scale:.3g} to respect vmax")
+            if smin < self.singular_sigma:
+                flags.insert(0, "singular")
+                reasons[-1] = (f"near a singularity (σ_min = {smin:.3g}) the solver needs "
+                               f"{1 / scale:.3g}× vmax; q̇ scaled by {scale:.3g}")
+        if self._has_a and self.filter is None and not enforcing:
+            dq = qd - self._qd
+            r = float((np.abs(dq) * self._inv_amax).max()) / dt
+            if r > 1.0:
+                qd = self._qd + dq / r
+                flags.append("acceleration-limited")
+                reasons.append(f"change of q̇ scaled by {1 / r:.3g} to respect amax")
+                active.append("acceleration")
+                if self._has_v:  # the velocity limit wins if the previous q̇ was above it
+                    rv = float((np.abs(qd) * self._inv_vmax).max())
+                    if rv > 1.0:
+                        qd = qd / rv
+        if self._has_p and (not enforcing or self.filter is not None):
+            if self._pthresh_dt != dt:  # |q − mid| beyond this: a joint may need to brake
+                self._pthresh = self._phalf - self._pbrake - self._vf * dt
+                self._pthresh_dt = dt
+            near = (np.abs(q - self._pmid) > self._pthresh).any()
+        else:
+            near = False
+        if near and not enforcing:
+            up = self._phi - q
+            lo = self._plo - q
+            amax = self._amax_f
+            # discrete braking: a v that can still stop within the room d at amax in whole
+            # steps of dt, v = a dt (√(1/4 + 2d/(a dt²)) − 1) (one step of margin)
+            adt = amax * dt
+            brake_up = adt * np.maximum(np.sqrt(0.25 + 2.0 * np.maximum(up, 0.0) / (adt * dt)) - 1.0, 0.0)
+            brake_lo = adt * np.maximum(np.sqrt(0.25 + 2.0 * np.maximum(-lo, 0.0) / (adt * dt)) - 1.0, 0.0)
+            hi_v = np.minimum(up / dt, brake_up)
+            lo_v = np.maximum(lo / dt, -brake_lo)
+            # a joint found beyond a limit (a disturbance, or a start outside the range) is
+            # brought back no faster than vmax and no harder than amax from the previous q̇
+            hi_v = np.maximum(hi_v, np.maximum(-self._vf, self._qd - adt))
+            lo_v = np.minimum(lo_v, np.minimum(self._vf, self._qd + adt))
+            clipped = np.clip(qd, lo_v, hi_v)
+            changed = clipped != qd
+            if changed.any():
+                joints = np.flatnonzero(changed)
+                qd = clipped
+                flags.insert(0, "joint-limit")
+                reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
+                active.append("position")
+        braking = None
+        if self.filter is not None and near:
+            qd, braking = self._jerk_limited_position_guard(q, qd, dt, flags, reasons, active)
+        if res.damping > 0.0 and not (enforcing and smin >= self.singular_sigma):
+            # a QP's λ is a constant regulariser: it is reported only near a singularity
+            flags.append("damped")
+            reasons.append(f"damped least squares, λ = {res.damping:.3g} (σ_min = {smin:.3g})")
+        if (not flags and target is not None and qd_ff is None
+                and (twist is None or not twist.any()) and ep <= self.position_tolerance
+                and eo <= self.orientation_tolerance):
+            flags.append("target-reached")
+
+        # --- smoothing and integration
+        if self.filter is not None:
+            if abs(self.filter.dt - dt) > 1e-15:
+                self.filter.dt = dt
+            try:
+                q_next, qd, qdd = self.filter.update(q, qd, qdd_ff, independent=braking)
+            except RatectlError as err:
+                return self._halt(q, dt, f"smoothing failed: {err}", error=e, ep=ep, eo=eo)
+        else:
+            q_next = q + qd * dt
+            qdd = (qd - self._qd) / dt
+        self._qd = qd
+        self._qdd = qdd
+        self._q_last = q
+        t0 = self.time
+        self.time = t0 + dt
+        if flags:
+            status = min(flags, key=_RANK.__getitem__)
+            flags = tuple(dict.fromkeys(flags))
+        else:
+            status, flags = "regular", ("regular",)
+        # frozen dataclass, filled directly (its generated __init__ costs ~4 µs per cycle)
+        cmd = _new_command(Command)
+        cmd.__dict__.update(qd=qd, q_next=q_next, qdd=qdd, status=status, flags=flags,
+                            reason="; ".join(reasons), error=e.copy(), position_error=ep,
+                            orientation_error=eo, twist=xi, sigma_min=smin, damping=float(res.damping),
+                            task_error=res.task_error, velocity_scale=scale,
+                            limits_active=tuple(dict.fromkeys(active)) if active else (), time=t0,
+                            dt=dt, solve=res, _chain=self.chain, _q=q)
+        return cmd
+
+    def _jerk_limited_position_guard(self, q, qd, dt, flags, reasons, active):
+        """Keep a smoothed joint inside its position range: the Ruckig filter lags the
+        command, so braking must start while the jerk-limited stop still fits.
+
+        From the filter's state (v, a) the worst case one period ahead towards a limit is
+        a₁ = min(a + J·dt, A), v₁ = v + a·dt + J·dt²/2 after travelling v·dt + a·dt²/2 +
+        J·dt³/6. If the jerk-limited stop from (v₁, a₁) (:func:`~ratectl.smoothing.
+        stopping_distance`) no longer fits in the room left, the command towards that
+        limit is 0 now (Ruckig then brakes time-optimally); otherwise it is at most
+        :func:`~ratectl.smoothing.braking_speed` of the room. The same mirrored towards
+        the lower limit. Returns (q̇, braking): the joints that must stop, which the filter
+        then moves time-optimally on their own instead of synchronised with the others."""
+        f = self.filter
+        A, Jm = f.amax, f.jmax
+        v, a = self._qd, self._qdd
+        jdt = Jm * dt
+        ahead_v = 0.5 * jdt * dt
+        ahead_x = jdt * dt * dt / 6.0
+        room_up = self._phi - q
+        room_lo = q - self._plo
+        # towards the upper limit
+        a1 = np.minimum(a + jdt, A)
+        v1 = v + a * dt + ahead_v
+        stop_up = stopping_distance(v1, a1, A, Jm) >= room_up - (v * dt + 0.5 * a * dt * dt + ahead_x)
+        hi_v = np.where(stop_up, 0.0, braking_speed(room_up, A, Jm))
+        # towards the lower limit (mirrored)
+        a1 = np.minimum(-a + jdt, A)
+        v1 = -v - a * dt + ahead_v
+        stop_lo = stopping_distance(v1, a1, A, Jm) >= room_lo - (-v * dt - 0.5 * a * dt * dt + ahead_x)
+        lo_v = np.where(stop_lo, 0.0, -braking_speed(room_lo, A, Jm))
+        clipped = np.minimum(np.maximum(qd, lo_v), hi_v)
+        changed = clipped != qd
+        if changed.any():
+            joints = np.flatnonzero(changed).tolist()
+            if "joint-limit" not in flags:
+                flags.insert(0, "joint-limit")
+            reasons.insert(0, f"joint(s) {joints} braking for a position limit (jerk-limited stop)")
+            active.append("position")
+        return clipped, stop_up | stop_lo  # the braking joints stop time-optimally, on their own
+
+    def _report_solver_limits(self, res, qd, smin, flags, reasons, scale):
+        """Flags and reasons for a solver that enforces the limits itself (the QP): which
+        joints sit at which kind of bound, from ``res.bound`` and ``res.limits_active``.
+        Only a q̇ beyond vmax by more than rounding (a bound conflict) is scaled back."""
+        if self._has_v:
+            r = float((np.abs(qd) * self._inv_vmax).max())
+            if r > 1.0 + 1e-9:
+                qd = qd / r
+                scale /= r
+                flags.append("velocity-scaled")
+                reasons.append(f"q̇ scaled by {1 / r:.3g} to respect vmax")
+        kinds = res.limits_active
+        joints = np.flatnonzero(res.bound).tolist() if len(res.bound) else []
+        if "position" in kinds:
+            flags.insert(0, "joint-limit")
+            reasons.insert(0, f"QP: joint(s) {joints} held by a position limit")
+        if "velocity" in kinds:
+            if smin < self.singular_sigma:
+                flags.insert(0, "singular")
+                reasons.append(f"near a singularity (σ_min = {smin:.3g}) the QP holds joint(s) "
+                               f"{joints} at vmax")
+            else:
+                flags.append("velocity-scaled")
+                reasons.append(f"QP: joint(s) {joints} at vmax")
+        if "acceleration" in kinds:
+            flags.append("acceleration-limited")
+            reasons.append(f"QP: joint(s) {joints} at the acceleration bound")
+        extra = res.info.get("extra_active") if isinstance(res.info, dict) else None
+        if extra is not None and np.any(extra):
+            reasons.append(f"{int(np.count_nonzero(extra))} extra constraint row(s) active "
+                           "(e.g. collision avoidance)")
+        return qd, scale
+
+    # ------------------------------------------------------------------ halting
+    def _halt(self, q, dt, reason, *, status="halted", sigma_min=float("nan"), error=None,
+              ep=float("nan"), eo=float("nan")) -> Command:
+        """Decelerate the previous q̇ to zero within the limits, from the last good q."""
+        qd_prev = self._qd
+        base = q if np.all(np.isfinite(q)) else self._q_last
+        if base is None:
+            base = np.zeros(self._n)
+        smoothed = False
+        if self.filter is not None:
+            try:
+                q_next, qd, qdd = self.filter.update(base, np.zeros(self._n))
+                smoothed = True
+            except RatectlError as err:  # the filter failed: brake without it
+                reason = f"{reason}; smoothing failed while halting ({err})"
+        if not smoothed:
+            amax = self.limits.amax if self.limits is not None else np.full(self._n, np.inf)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t_stop = float(np.max(np.where(np.isfinite(amax), np.abs(qd_prev) / amax, 0.0)))
+            factor = max(0.0, 1.0 - dt / t_stop) if t_stop > 0.0 else 0.0
+            qd = qd_prev * factor
+            q_next = base + qd * dt
+            qdd = (qd - qd_prev) / dt
+        self._qd = qd
+        self._qdd = qdd
+        self._q_last = base
+        t0 = self.time
+        self.time = t0 + dt
+        return Command(qd=qd, q_next=q_next, qdd=qdd, status=status, flags=(status,), reason=reason,
+                       error=np.zeros(6) if error is None else error.copy(), position_error=ep,
+                       orientation_error=eo, twist=np.zeros(6), sigma_min=sigma_min, damping=0.0,
+                       task_error=np.zeros(6), velocity_scale=0.0, limits_active=(), time=t0, dt=dt,
+                       solve=None, _chain=self.chain, _q=base)
+
+    def __repr__(self) -> str:
+        return (f"ResolvedRateController({self.chain.name!r}, solver={type(self.solver).__name__}, "
+                f"gain={self.gain.tolist()}, smoothing={self.filter is not None})")

@@ -1,0 +1,256 @@
+"""Ruckig smoothing: jerk-limited joint commands.
+
+* :class:`VelocityFilter` — an online filter for a control loop. Every cycle it takes
+  the desired joint velocity and returns the next state of a jerk-limited motion
+  that moves towards it (Ruckig's *velocity interface*): |q̇| ≤ vmax, |q̈| ≤ amax and
+  |q⃛| ≤ jmax per joint, and the position is the exact integral of that motion.
+* :func:`move` — a state-to-state joint move (Ruckig's position interface, no
+  intermediate waypoints): from a joint state to a goal at rest, time-optimal and
+  jerk-limited, all joints synchronised. Used to go to the start of a path.
+* :func:`stop` — the jerk-limited motion that brings a moving joint state to rest.
+* :func:`stopping_distance` and :func:`braking_speed` — the closed forms of that stop
+  per joint (how far a jerk-limited joint travels before it is at rest, and the speed
+  from which it can still stop within a distance); the controller uses them to keep a
+  smoothed joint inside its position range.
+
+Ruckig's intermediate waypoints are never used (the community build computes them
+through a remote service); only single-segment state-to-state and velocity-interface
+calls are made, which run locally.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError, SolverError
+
+__all__ = ["VelocityFilter", "JointTrajectory", "move", "stop"]
+
+
+def _limit_array(value, n: int, name: str) -> np.ndarray:
+    a = np.broadcast_to(np.asarray(value, dtype=float), (n,)).copy()
+    if not np.all(a > 0.0) or not np.all(np.isfinite(a)):
+        raise InputError(f"{name} must be positive and finite for every joint to use Ruckig, got {a}",
+                         argument=name, value=value)
+    return a
+
+
+class VelocityFilter:
+    """Online jerk-limited velocity filter (Ruckig velocity interface), one per control loop.
+
+    Each :meth:`update` advances the filter state by one period ``dt`` towards the
+    target velocity (clipped to ±vmax) — and target acceleration, if given — with
+    |q̈| ≤ amax and |q⃛| ≤ jmax. Ruckig's ``minimum_duration`` is set to ``dt``, so a
+    target state that is reachable within one period is met exactly at the next cycle
+    (a jerk-feasible reference with its acceleration is tracked without lag). The
+    Ruckig objects are created once and kept; the filter owns the current velocity and
+    acceleration.
+
+    Args:
+        dof: number of joints; dt: period [s]; vmax, amax, jmax: (n,) or scalar limits.
+    """
+
+    def __init__(self, dof: int, *, dt: float, vmax, amax, jmax) -> None:
+        import ruckig
+
+        self._ruckig = ruckig
+        self.dof = int(dof)
+        dt = float(dt)
+        if not (dt > 0.0 and math.isfinite(dt)):
+            raise InputError(f"dt must be a positive period [s], got {dt!r}", argument="dt", value=dt)
+        self.vmax = _limit_array(vmax, self.dof, "vmax")
+        self.amax = _limit_array(amax, self.dof, "amax")
+        self.jmax = _limit_array(jmax, self.dof, "jmax")
+        self._vmax_list = self.vmax.tolist()
+        self._neg_vmax = -self.vmax
+        self._otg = ruckig.Ruckig(self.dof, dt)
+        self._inp = ruckig.InputParameter(self.dof)
+        self._out = ruckig.OutputParameter(self.dof)
+        self._inp.control_interface = ruckig.ControlInterface.Velocity
+        self._inp.max_velocity = self._vmax_list
+        self._inp.max_acceleration = self.amax.tolist()
+        self._inp.max_jerk = self.jmax.tolist()
+        # reach the target state no earlier than the next cycle: a feasible (q̇, q̈) reference
+        # is then met exactly at t + dt instead of early (and overshot by q̈·(dt − T))
+        self._inp.minimum_duration = dt
+        self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
+        self._per_dof = False
+        self.reset()
+
+    @property
+    def dt(self) -> float:
+        return float(self._otg.delta_time)
+
+    @dt.setter
+    def dt(self, value: float) -> None:
+        self._otg.delta_time = float(value)
+        self._inp.minimum_duration = float(value)
+
+    def reset(self, qd=None, qdd=None) -> None:
+        """Set the filter state (default: at rest)."""
+        z = [0.0] * self.dof
+        self._inp.current_velocity = z if qd is None else np.asarray(qd, dtype=float).tolist()
+        self._inp.current_acceleration = z if qdd is None else np.asarray(qdd, dtype=float).tolist()
+        self._inp.target_acceleration = z
+        self._ta_set = False
+
+    def _calculate(self):
+        """One Ruckig update; a RuckigError exception (the Python binding raises some
+        failures instead of returning them) becomes an error result."""
+        try:
+            return self._otg.update(self._inp, self._out)
+        except self._ruckig.RuckigError as exc:
+            return exc
+
+    @property
+    def velocity(self) -> np.ndarray:
+        return np.array(self._inp.current_velocity)
+
+    @property
+    def acceleration(self) -> np.ndarray:
+        return np.array(self._inp.current_acceleration)
+
+    def update(self, q, qd_target, qdd_target=None, *, independent=None):
+        """One period: returns ``(q_next, qd, qdd)`` of the jerk-limited motion from ``q``.
+
+        The joints are time-synchronised (they reach the target velocity together, so the
+        joint-space direction of the change is kept), except those in ``independent``.
+
+        Args:
+            q: current joint positions (n,) (the position the motion starts from).
+            qd_target: desired joint velocity (n,), clipped to ±vmax.
+            qdd_target: desired joint acceleration at that velocity (n,), clipped to ±amax
+                (default 0: arrive at the target velocity and stay there).
+            independent: optional (n,) booleans: joints that move time-optimally on their
+                own this period instead of being stretched to the others' time (a joint
+                braking for its position limit must brake as hard as it can).
+        """
+        inp = self._inp
+        if independent is not None and any(independent):
+            sync = self._ruckig.Synchronization
+            inp.per_dof_synchronization = [sync.No if m else sync.Time for m in independent]
+            self._per_dof = True
+        elif self._per_dof:
+            inp.per_dof_synchronization = None
+            self._per_dof = False
+        inp.current_position = q.tolist() if type(q) is np.ndarray else list(q)
+        vt = np.minimum(np.maximum(qd_target, self._neg_vmax), self.vmax)  # (np.clip is slower)
+        inp.target_velocity = vt.tolist()
+        if qdd_target is not None:
+            ta = np.minimum(np.maximum(qdd_target, -self.amax), self.amax)
+            if independent is not None:
+                ta = np.where(independent, 0.0, ta)  # a braking joint arrives at rest acceleration
+            inp.target_acceleration = ta.tolist()
+            self._ta_set = True
+        elif self._ta_set:
+            inp.target_acceleration = [0.0] * self.dof
+            self._ta_set = False
+        res = self._calculate()
+        if res not in self._ok:
+            # Ruckig cannot always synchronise target accelerations (its step 2): fall back
+            # to reaching the target velocities at rest acceleration, each joint on its own
+            inp.target_acceleration = [0.0] * self.dof
+            self._ta_set = True
+            inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
+            self._per_dof = True
+            res = self._calculate()
+        if res not in self._ok:
+            raise SolverError(f"Ruckig velocity filter failed: {res}", status=res,
+                              problem={"target_velocity": vt, "velocity": inp.current_velocity,
+                                       "acceleration": inp.current_acceleration})
+        out = self._out
+        out.pass_to_input(inp)
+        return np.array(out.new_position), np.array(out.new_velocity), np.array(out.new_acceleration)
+
+
+@dataclass(frozen=True)
+class JointTrajectory:
+    """A jerk-limited joint trajectory computed by Ruckig (state to state).
+
+    Attributes:
+        duration: [s]; start, goal: (n,) joint positions.
+    """
+
+    duration: float
+    start: np.ndarray
+    goal: np.ndarray
+    _traj: object
+
+    def at(self, t: float):
+        """``(q, q̇, q̈)`` at time ``t`` [s] (clamped to [0, duration])."""
+        t = min(max(float(t), 0.0), self.duration)
+        p, v, a = self._traj.at_time(t)[:3]
+        return np.array(p), np.array(v), np.array(a)
+
+    def sample(self, dt: float):
+        """Arrays ``(t, q, q̇, q̈)`` every ``dt`` [s], including both ends."""
+        n = int(math.ceil(self.duration / dt - 1e-9)) + 1
+        t = np.minimum(np.arange(n) * dt, self.duration)
+        rows = [self.at(x) for x in t]
+        q, qd, qdd = (np.array([r[i] for r in rows]) for i in range(3))
+        return t, q, qd, qdd
+
+
+def move(q_start, q_goal, *, vmax, amax, jmax, qd_start=None, qdd_start=None) -> JointTrajectory:
+    """Time-optimal, jerk-limited, synchronised joint move to ``q_goal`` at rest (Ruckig position
+    interface, one segment — never intermediate waypoints).
+
+    Args:
+        q_start, q_goal: (n,) joint positions; qd_start, qdd_start: initial velocity and
+            acceleration (default rest); vmax, amax, jmax: (n,) or scalar limits.
+    """
+    import ruckig
+
+    q0 = np.asarray(q_start, dtype=float)
+    q1 = np.asarray(q_goal, dtype=float)
+    if q0.ndim != 1 or q0.shape != q1.shape or not (np.all(np.isfinite(q0)) and np.all(np.isfinite(q1))):
+        raise InputError(f"q_start and q_goal must be finite (n,) arrays of the same shape, got "
+                         f"{q0.shape} and {q1.shape}", argument="q_goal", value=q_goal)
+    n = len(q0)
+    inp = ruckig.InputParameter(n)
+    z = [0.0] * n
+    inp.current_position = q0.tolist()
+    inp.current_velocity = z if qd_start is None else np.asarray(qd_start, dtype=float).tolist()
+    inp.current_acceleration = z if qdd_start is None else np.asarray(qdd_start, dtype=float).tolist()
+    inp.target_position, inp.target_velocity, inp.target_acceleration = q1.tolist(), z, z
+    inp.max_velocity = _limit_array(vmax, n, "vmax").tolist()
+    inp.max_acceleration = _limit_array(amax, n, "amax").tolist()
+    inp.max_jerk = _limit_array(jmax, n, "jmax").tolist()
+    traj = _calculate(inp, n, "the joint move", {"q_start": q0, "q_goal": q1})
+    return JointTrajectory(float(traj.duration), q0.copy(), q1.copy(), traj)
+
+
+def _calculate(inp, n: int, what: str, problem: dict):
+    """Ruckig's offline trajectory for ``inp``; a failure raises SolverError naming ``what``."""
+    import ruckig
+
+    traj = ruckig.Trajectory(n)
+    res = ruckig.Ruckig(n).calculate(inp, traj)
+    if res not in (ruckig.Result.Working, ruckig.Result.Finished):
+        raise SolverError(f"Ruckig could not compute {what}: {res}", status=res, problem=problem)
+    return traj
+
+
+def stop(q, qd, *, qdd=None, amax, jmax) -> JointTrajectory:
+    """The jerk-limited motion that brings the state ``(q, q̇, q̈)`` to rest as fast as the limits
+    allow (Ruckig velocity interface with target velocity 0); all joints synchronised."""
+    import ruckig
+
+    q = np.asarray(q, dtype=float)
+    n = len(q)
+    inp = ruckig.InputParameter(n)
+    inp.control_interface = ruckig.ControlInterface.Velocity
+    z = [0.0] * n
+    inp.current_position = q.tolist()
+    inp.current_velocity = np.asarray(qd, dtype=float).tolist()
+    inp.current_acceleration = z if qdd is None else np.asarray(qdd, dtype=float).tolist()
+    inp.target_velocity, inp.target_acceleration = z, z
+    inp.max_velocity = [math.inf] * n
+    inp.max_acceleration = _limit_array(amax, n, "amax").tolist()
+    inp.max_jerk = _limit_array(jmax, n, "jmax").tolist()
+    traj = _calculate(inp, n, "the stop", {"q": q, "qd": qd})
+    p_end = np.array(traj.at_time(traj.duration)[0])
+    return JointTrajectory(float(traj.duration), q.copy(), p_end, traj)

@@ -1,0 +1,216 @@
+"""Run a resolved-rate controller along a Cartesian path: :func:`follow`.
+
+Two modes:
+
+* ``governor=True`` (default): the path-speed governor (:mod:`ratectl.planning.governor`)
+  plans the joint path and a jerk-limited, limit-respecting progress s(t); each
+  cycle the controller gets the planned joint velocity as feed-forward (``qd_ff``)
+  and the path pose P(s_k) as target, so feedback corrects any drift. The motion
+  takes as long as the limits require and stays on the path.
+* ``governor=False``: the path's own time law drives the controller with
+  ``target = P(s(t))`` and ``twist = dP/ds·ṡ(t)``; near singularities the solver
+  (and the controller's limits) decide what gives — typically the path error.
+
+After the schedule ends the controller keeps the end pose as target for at most
+``settle`` seconds, until the pose is within ``tolerance``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..control import ResolvedRateController, move
+from ..errors import InputError
+from ..paths import Path
+from ..planning import Governor, ik
+from ..spatial import pose_error
+from .record import Execution
+
+__all__ = ["follow"]
+
+
+def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle: float = 0.5,
+           tolerance: tuple[float, float] = (1e-4, 1.75e-4), approach: bool = True,
+           record_kinds: bool = True) -> Execution:
+    """Follow ``path`` with ``chain`` from joint positions ``q0``; returns an :class:`Execution`.
+
+    Args:
+        chain: the arm. path: a :class:`ratectl.paths.Path`. q0: (n,) start configuration.
+        dt: control period [s].
+        controller: a :class:`~ratectl.controller.ResolvedRateController` (default: a new one with
+            the default solver, the chain's limits and no smoothing). It is reset first.
+        governor: True (default options), False (the path's time law), or a
+            :class:`~ratectl.governor.Governor` with custom options.
+        settle: time allowed after the schedule to converge on the end pose [s].
+        tolerance: (position [m], orientation [rad]) for "completed" at the end pose.
+        approach: if fk(q0) is not at the path start, first solve IK for the start pose and move
+            there with a jerk-limited joint move (recorded in ``info["approach"]``); if False,
+            such a q0 is an error.
+        record_kinds: ask :func:`ratectl.analyze` for the singularity kind on steps whose status
+            is "damped" or "singular" (evaluated every 20 ms within such a stretch, carried
+            over in between).
+    """
+    if not isinstance(path, Path):
+        raise InputError(f"path must be a ratectl.paths.Path, got {type(path).__name__}", argument="path",
+                         value=path)
+    dt = float(dt)
+    if not (dt > 0.0 and math.isfinite(dt)):
+        raise InputError(f"dt must be a positive period [s], got {dt!r}", argument="dt", value=dt)
+    q = chain.check_q(q0).astype(float).copy()
+    if q.shape != (chain.dof,):
+        raise InputError(f"q0 must be one configuration ({chain.dof},), got {q.shape}", argument="q0",
+                         value=q0)
+    outside = np.flatnonzero((q < chain.lower) | (q > chain.upper))
+    if outside.size:
+        names = chain.joint_names
+        detail = "; ".join(f"joint {i + 1} ({names[i]}): q = {q[i]:.6g}, limits "
+                           f"[{chain.lower[i]:.6g}, {chain.upper[i]:.6g}]" for i in outside)
+        raise InputError(f"q0 is outside the joint position limits ({detail}); start inside the "
+                         "range", argument="q0", value=q0)
+    ctrl = controller if controller is not None else ResolvedRateController(chain)
+    if ctrl.chain is not chain and ctrl.chain.dof != chain.dof:
+        raise InputError("the controller was built for another chain", argument="controller",
+                         value=controller)
+    ctrl.reset()
+    info: dict = {"solver": type(ctrl.solver).__name__, "smoothing": ctrl.filter is not None}
+
+    # --- reach the start of the path
+    e0 = pose_error(path.start, chain.fk(q))
+    if np.linalg.norm(e0[:3]) > 1e-6 or np.linalg.norm(e0[3:]) > 1e-5:
+        if not approach:
+            raise InputError("q0 is not at the start of the path (fk(q0) is "
+                             f"{np.linalg.norm(e0[:3]) * 1e3:.3g} mm away); pass approach=True",
+                             argument="q0", value=q0)
+        info["approach"] = _approach(chain, path, q, dt)
+        q = info["approach"].q[-1].copy()
+
+    use_gov = governor is not False and governor is not None
+    gov = None
+    if use_gov:
+        gov = governor if isinstance(governor, Governor) else Governor(check_jerk=ctrl.filter is not None)
+        plan = gov.plan(chain, path, q, dt=dt)
+        info["plan"] = plan
+        n_sched = len(plan)
+    else:
+        n_sched = int(math.ceil(path.duration / dt - 1e-9)) + 1
+    n_settle = int(math.ceil(settle / dt))
+
+    Q, QD, QDD, ST, S, KINDS = [], [], [], [], [], []
+    # where the schedule ends: the path end, or where the governor had to stop
+    T_end = path.pose_at(float(plan.s[-1])) if use_gov else path.end
+    pos_tol, ori_tol = tolerance
+    k = 0
+    halted_reason = ""
+    kind, kind_at, kind_every = None, -(10**9), max(1, round(0.02 / dt))
+    while True:
+        if k < n_sched:
+            if use_gov:
+                s = float(plan.s[k])
+                if ctrl.filter is None:
+                    cmd = ctrl.step(q, target=path.pose_at(s), qd_ff=plan.qd_ff[k], dt=dt)
+                else:  # continuous velocity and acceleration of the plan at the end of the period
+                    k1 = min(k + 1, n_sched - 1)
+                    v = 0.5 * (plan.qd_ff[k] + plan.qd_ff[k1])
+                    a = (plan.qd_ff[k1] - plan.qd_ff[k]) / dt
+                    cmd = ctrl.step(q, target=path.pose_at(s), qd_ff=v, qdd_ff=a, dt=dt)
+            else:
+                s, sd, _ = path.progress(k * dt)
+                cmd = ctrl.step(q, target=path.pose_at(s), twist=path.twist_at(s, sd=sd), dt=dt)
+        else:
+            s = float(plan.s[-1]) if use_gov else path.length
+            cmd = ctrl.step(q, target=T_end, dt=dt)
+        Q.append(q)
+        QD.append(cmd.qd)
+        QDD.append(cmd.qdd)
+        ST.append(cmd.status)
+        S.append(s)
+        if record_kinds and cmd.status in ("damped", "singular"):
+            # rc.analyze costs about a millisecond: within a stretch of damped/singular steps
+            # it is evaluated every `kind_every` steps (20 ms) and the kind carried over
+            if k - kind_at >= kind_every or not ST[-2:-1] or ST[-2] not in ("damped", "singular"):
+                kind, kind_at = cmd.kind, k
+            KINDS.append(kind)
+        else:
+            KINDS.append(None)
+        if cmd.status == "halted" and ctrl.halted:
+            halted_reason = cmd.reason
+        q = cmd.q_next
+        k += 1
+        if k >= n_sched:
+            if k >= n_sched + n_settle:
+                break
+            if cmd.position_error <= pos_tol * 0.1 and cmd.orientation_error <= ori_tol * 0.1 \
+                    and float(np.max(np.abs(cmd.qd))) < 1e-6:
+                break
+    # final state (after the last command)
+    Q.append(q)
+    QD.append(QD[-1] if ctrl.filter is None else ctrl.filter.velocity)
+    QDD.append(np.zeros(chain.dof) if ctrl.filter is None else ctrl.filter.acceleration)
+    ST.append(ST[-1])
+    S.append(S[-1])
+    KINDS.append(KINDS[-1])
+
+    Q = np.array(Q)
+    t = np.arange(len(Q)) * dt
+    poses, J = chain.fk_jacobian(Q)
+    sig = np.linalg.svd(J, compute_uv=False)[:, -1]
+    S = np.array(S)
+    perr = np.empty(len(Q))
+    oerr = np.empty(len(Q))
+    terr = np.empty(len(Q))
+    s_near = None
+    window = 0.25 * path.length + 1e-3
+    for i in range(len(Q)):
+        dpos, dang, s_near = path.distance(poses[i], s_hint=S[i] if s_near is None else s_near, window=window)
+        perr[i], oerr[i] = dpos, dang
+        terr[i] = float(np.linalg.norm(poses[i][:3, 3] - path.position_at(S[i])))
+    eend = pose_error(T_end, poses[-1])
+    end_p, end_o = float(np.linalg.norm(eend[:3])), float(np.linalg.norm(eend[3:]))
+    reached = end_p <= pos_tol and end_o <= ori_tol
+    duration = float(t[-1])
+    nominal = path.duration
+    if halted_reason:
+        completed = False
+        message = f"halted: {halted_reason}"
+    elif use_gov and not plan.complete:
+        completed = False
+        message = f"governor: {plan.message}"
+    elif not reached:
+        completed = False
+        message = (f"end pose not reached: {end_p * 1e3:.3g} mm, {math.degrees(end_o):.3g}° from it "
+                   f"after {settle:g} s of settling")
+    else:
+        completed = True
+        message = (f"completed in {duration:.3f} s, nominal {nominal:.3f} s "
+                   f"(+{duration - nominal:.3f} s, ×{duration / nominal if nominal > 0 else 1.0:.2f})")
+    info.update({"end_position_error": end_p, "end_orientation_error": end_o,
+                 "governor": repr(gov) if gov is not None else None})
+    return Execution(t=t, q=Q, qd=np.array(QD), qdd=np.array(QDD), poses=poses, position_error=perr,
+                     orientation_error=oerr, tracking_error=terr, statuses=tuple(ST), kinds=tuple(KINDS),
+                     sigma_min=sig, s=S, nominal_duration=nominal, duration=duration, completed=completed,
+                     message=message, source="follow" + (" (governor)" if use_gov else " (time law)"),
+                     chain_name=chain.name, joint_names=tuple(chain.joint_names),
+                     vmax=np.array(chain.vmax), amax=np.array(chain.amax), info=info)
+
+
+def _approach(chain, path, q0, dt) -> Execution:
+    """IK for the path start, then a jerk-limited joint move there (ratectl.smoothing.move)."""
+    res = ik(chain, path.start, q0, tol=(1e-10, 1e-10))
+    q_goal, ep, eo = np.array(res.q), res.position_error, res.orientation_error
+    if ep > 1e-6 or eo > 1e-5:
+        raise InputError(f"cannot reach the start of the path from q0: IK ends {ep * 1e3:.3g} mm / "
+                         f"{math.degrees(eo):.3g}° away", argument="q0", value=q0)
+    lo, hi = chain.lower, chain.upper
+    if np.any(q_goal < lo) or np.any(q_goal > hi):
+        raise InputError("the IK solution for the path start violates the joint limits; pass a q0 "
+                         "closer to the start", argument="q0", value=q0)
+    traj = move(q0, q_goal, vmax=chain.vmax, amax=chain.amax, jmax=chain.jmax)
+    t, q, qd, qdd = traj.sample(dt)
+    q[-1] = q_goal
+    return Execution(t=t, q=q, qd=qd, qdd=qdd, poses=chain.fk(q), statuses=("approach",) * len(t),
+                     nominal_duration=traj.duration, duration=float(t[-1]), completed=True,
+                     message=f"joint move to the path start in {traj.duration:.3f} s", source="approach",
+                     chain_name=chain.name, joint_names=tuple(chain.joint_names),
+                     vmax=np.array(chain.vmax), amax=np.array(chain.amax))

@@ -1,0 +1,102 @@
+"""What a model file says about a serial chain, before it becomes a :class:`~ratectl.Chain`.
+
+The URDF and MJCF readers produce a :class:`ModelDescription`: the moving joints on
+the path from the base to the tip, each in the general form ``pre · M(q) · post``
+(see :class:`ratectl.model.joints.Joint`), and the constant tool transform after the
+last one. :meth:`ratectl.Chain.from_urdf` and :meth:`ratectl.Chain.from_mjcf` turn it
+into a chain. Keeping the readers free of the chain class keeps the layers one-way:
+``model`` uses ``io``, never the reverse.
+
+A joint with origin transform ``O`` (relative to its parent link/body frame) and unit
+axis ``a`` gets ``pre = A · O · R_a`` and ``post = R_aᵀ``, where ``R_a`` takes the z axis
+onto ``a`` and ``A`` collects the constant transforms (fixed joints, joint-less
+bodies) met since the previous moving joint. ``R_a Rz(q) R_aᵀ`` is the rotation by q
+about ``a``, so the chain frame after each joint is exactly the child link or body frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ImportModelError
+from ..spatial import transform
+
+__all__ = ["JointDescription", "ModelDescription", "axis_rotation", "unit_axis", "movable_joint"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class JointDescription:
+    """One moving joint read from a file: kind, constant transforms, name and limits.
+
+    ``element`` names the file element for error messages (``"joint 'shoulder'"``).
+    Limits are ``None`` where the file gives none.
+    """
+
+    kind: str
+    pre: np.ndarray
+    post: np.ndarray
+    name: str
+    element: str
+    qlim: tuple[float, float] | None = None
+    vmax: float | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class ModelDescription:
+    """The serial chain a model file describes: its joints, tool transform and name.
+
+    ``label`` names the source in messages (a file path, ``"<URDF string>"``, ...).
+    """
+
+    joints: tuple[JointDescription, ...]
+    tool: np.ndarray
+    name: str
+    label: str
+
+
+def axis_rotation(axis) -> np.ndarray:
+    """A rotation ``R_a`` (3×3) with ``R_a · ẑ = a`` for a unit vector ``a``.
+
+    Exact for ±z (identity, Rx(π)); otherwise the rotation about ``ẑ × a`` by the
+    angle between them (Rodrigues' formula, written without trigonometric calls:
+    ``R = c I + [k]× + (1 − c)/s² k kᵀ`` with ``k = ẑ × a``, ``c = a_z``, ``s = ‖k‖``).
+    """
+    a = np.asarray(axis, dtype=float)
+    c = float(a[2])
+    k = np.array([-a[1], a[0], 0.0])
+    s2 = float(k @ k)
+    if s2 < 1e-30:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return c * np.eye(3) + K + ((1.0 - c) / s2) * np.outer(k, k)
+
+
+def unit_axis(v, what: str) -> np.ndarray:
+    n = float(np.linalg.norm(v))
+    if not n > 1e-12:
+        raise ImportModelError(f"{what}: the joint axis {v.tolist()} has zero length", element=what)
+    return v / n
+
+
+def movable_joint(kind: str, O: np.ndarray, axis: np.ndarray, *, name: str, qlim, vmax,
+                   what: str, post_extra: np.ndarray | None = None,
+                   offset: float = 0.0) -> JointDescription:
+    """Joint with ``pre = O · R_a · M(−offset)``, ``post = R_aᵀ · post_extra``."""
+    Ra = transform(axis_rotation(axis))
+    pre = O @ Ra
+    if offset:
+        M = np.eye(4)
+        if kind == "revolute":
+            c, s = math.cos(-offset), math.sin(-offset)
+            M[:2, :2] = [[c, -s], [s, c]]
+        else:
+            M[2, 3] = -offset
+        pre = pre @ M
+    post = Ra.T.copy()
+    if post_extra is not None:
+        post = post @ post_extra
+    return JointDescription(kind=kind, pre=pre, post=post, name=name, element=what, qlim=qlim,
+                            vmax=vmax)

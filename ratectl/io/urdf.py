@@ -1,0 +1,226 @@
+"""Read a serial arm from a URDF description (:func:`parse_urdf`).
+
+URDF is parsed with :mod:`xml.etree.ElementTree` behind :func:`~ratectl.io.xml.parse_xml_safely`
+(no document type or entity declarations: nothing expands, no external reference is
+followed). Mesh files, ``package://`` URIs and the ``<mujoco>`` extension element are
+ignored and never opened. Fixed joints are folded into the next moving joint's ``pre``
+or, after the last one, into the tool transform; the base is the base link.
+
+Everything that cannot become a serial chain raises
+:class:`~ratectl.errors.ImportModelError` whose message and ``element`` attribute
+name the element at fault (for example ``"joint 'finger_2'"``).
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from ..errors import ImportModelError
+from ..spatial import rotation_from_rpy, transform
+from .description import JointDescription, ModelDescription, movable_joint, unit_axis
+from .xml import float_attr, floats, parse_xml_safely, read_source
+
+__all__ = ["parse_urdf"]
+
+_URDF_MOVABLE = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
+_URDF_UNSUPPORTED = {"floating": "a floating joint has 6 degrees of freedom",
+                     "planar": "a planar joint has 3 degrees of freedom"}
+
+
+def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
+                    name: str | None = None) -> ModelDescription:
+    """Chain of the joints between ``base_link`` and ``tip`` of a URDF robot.
+
+    Args:
+        path: path to a ``.urdf`` file (or the XML text itself).
+        tip: name of the link that becomes the tool frame. Optional when the tree
+            below ``base_link`` has a single leaf; required when it branches
+            (e.g. a gripper with two fingers).
+        base_link: name of the link that becomes the world/base frame; default the
+            root link of the tree.
+        name: chain name; default the ``<robot name>``.
+
+    Returns:
+        A :class:`~ratectl.io.description.ModelDescription` of a chain whose fk(q) is
+        ``T_base_link_tip`` and whose
+        joints carry the URDF names and limits: ``<limit lower upper>`` [rad or m] for
+        revolute/prismatic joints (continuous joints are unlimited) and
+        ``<limit velocity>`` [rad/s or m/s] as ``vmax`` (absent or 0 → unlimited).
+
+    Raises:
+        ImportModelError: malformed XML, DTD/entity declarations, missing links,
+            several parents, cycles, a branch without a chosen tip, floating or
+            planar joints, mimic joints on the chain, unknown joint types, bad
+            numbers; the ``element`` attribute names the element at fault.
+    """
+    data, label, _ = read_source(path, "URDF")
+    root = parse_xml_safely(data, label=label)
+    if root.tag != "robot":
+        raise ImportModelError(f"{label}: the root element must be <robot>, got <{root.tag}>",
+                               element=f"<{root.tag}>")
+    links: set[str] = set()
+    for el in root.findall("link"):
+        lname = el.get("name")
+        if not lname:
+            raise ImportModelError(f"{label}: a <link> has no name attribute", element="link")
+        if lname in links:
+            raise ImportModelError(f"{label}: link {lname!r} is defined twice", element=f"link {lname!r}")
+        links.add(lname)
+    joints: dict[str, ET.Element] = {}
+    parent_joint: dict[str, str] = {}      # child link -> joint name
+    children: dict[str, list[str]] = {}     # parent link -> child links
+    for el in root.findall("joint"):
+        jname = el.get("name")
+        if not jname:
+            raise ImportModelError(f"{label}: a <joint> has no name attribute", element="joint")
+        what = f"joint {jname!r}"
+        if jname in joints:
+            raise ImportModelError(f"{label}: {what} is defined twice", element=what)
+        p_el, c_el = el.find("parent"), el.find("child")
+        if p_el is None or c_el is None or not p_el.get("link") or not c_el.get("link"):
+            raise ImportModelError(f"{label}: {what} needs <parent link=...> and <child link=...>",
+                                   element=what)
+        parent, child = p_el.get("link"), c_el.get("link")
+        for role, lk in (("parent", parent), ("child", child)):
+            if lk not in links:
+                raise ImportModelError(f"{label}: {what} refers to {role} link {lk!r}, which is "
+                                       "not defined by any <link>", element=what)
+        if child in parent_joint:
+            raise ImportModelError(
+                f"{label}: link {child!r} is the child of two joints ({parent_joint[child]!r} and "
+                f"{jname!r}); a URDF must be a tree", element=what)
+        joints[jname] = el
+        parent_joint[child] = jname
+        children.setdefault(parent, []).append(child)
+
+    def parent_of(link: str) -> str | None:
+        j = parent_joint.get(link)
+        return None if j is None else joints[j].find("parent").get("link")
+
+    roots = sorted(lk for lk in links if lk not in parent_joint)
+    if base_link is None:
+        if len(roots) != 1:
+            raise ImportModelError(
+                f"{label}: the links do not form a single tree: roots {roots}; pass base_link= "
+                "one of them" if roots else f"{label}: every link has a parent joint (a cycle)",
+                element=f"link {roots[0]!r}" if roots else "joint")
+        base_link = roots[0]
+    elif base_link not in links:
+        raise ImportModelError(f"{label}: base_link {base_link!r} is not a link of this robot; links: "
+                               f"{sorted(links)}", element=f"link {base_link!r}")
+    if tip is None:
+        tip = base_link
+        while True:
+            kids = children.get(tip, [])
+            if not kids:
+                break
+            if len(kids) > 1:
+                leaves = _leaves(tip, children)
+                raise ImportModelError(
+                    f"{label}: the chain branches at link {tip!r} into {sorted(kids)}; pass tip= one "
+                    f"of the leaf links {leaves} to choose the serial chain", element=f"link {tip!r}")
+            tip = kids[0]
+    elif tip not in links:
+        raise ImportModelError(f"{label}: tip {tip!r} is not a link of this robot; links: "
+                               f"{sorted(links)}", element=f"link {tip!r}")
+    # the path base_link -> tip, from the tip upwards
+    path_joints: list[str] = []
+    link = tip
+    seen = set()
+    while link != base_link:
+        if link in seen:
+            raise ImportModelError(f"{label}: the joints form a cycle through link {link!r}",
+                                   element=f"link {link!r}")
+        seen.add(link)
+        j = parent_joint.get(link)
+        if j is None:
+            raise ImportModelError(f"{label}: tip {tip!r} is not below base_link {base_link!r}",
+                                   element=f"link {tip!r}")
+        path_joints.append(j)
+        link = parent_of(link)
+    path_joints.reverse()
+
+    chain_joints: list[JointDescription] = []
+    A = np.eye(4)
+    for jname in path_joints:
+        el = joints[jname]
+        what = f"joint {jname!r}"
+        jtype = el.get("type")
+        if jtype in _URDF_UNSUPPORTED:
+            raise ImportModelError(
+                f"{label}: {what} is of type {jtype!r}: {_URDF_UNSUPPORTED[jtype]}; ratectl chains "
+                "support revolute, continuous, prismatic and fixed joints", element=what)
+        if jtype not in _URDF_MOVABLE and jtype != "fixed":
+            raise ImportModelError(
+                f"{label}: {what} has unknown type {jtype!r}; allowed: revolute, continuous, "
+                "prismatic, fixed", element=what)
+        O = _urdf_origin(el.find("origin"), what)
+        if jtype == "fixed":
+            A = A @ O
+            continue
+        if el.find("mimic") is not None:
+            raise ImportModelError(
+                f"{label}: {what} mimics joint {el.find('mimic').get('joint')!r}: coupled (mimic) "
+                "joints are not supported on the chain; choose a tip that excludes it", element=what)
+        ax_el = el.find("axis")
+        axis = floats(None if ax_el is None else ax_el.get("xyz"), 3, default=[1.0, 0.0, 0.0],
+                       what=f"{what} <axis xyz>")
+        axis = unit_axis(axis, what)
+        qlim, vmax = _urdf_limits(el, jtype, what, label)
+        chain_joints.append(movable_joint(_URDF_MOVABLE[jtype], A @ O, axis, name=jname,
+                                           qlim=qlim, vmax=vmax, what=what))
+        A = np.eye(4)
+    if not chain_joints:
+        raise ImportModelError(f"{label}: no revolute, continuous or prismatic joint between "
+                               f"{base_link!r} and {tip!r}", element=f"link {tip!r}")
+    rname = name if name is not None else (root.get("name") or "urdf")
+    return ModelDescription(joints=tuple(chain_joints), tool=A, name=rname, label=label)
+
+
+def _leaves(link: str, children: dict[str, list[str]]) -> list[str]:
+    out, stack = [], [link]
+    while stack:
+        lk = stack.pop()
+        kids = children.get(lk, [])
+        if kids:
+            stack.extend(kids)
+        else:
+            out.append(lk)
+    return sorted(out)
+
+
+def _urdf_origin(el: ET.Element | None, what: str) -> np.ndarray:
+    if el is None:
+        return np.eye(4)
+    xyz = floats(el.get("xyz"), 3, default=[0.0, 0.0, 0.0], what=f"{what} <origin xyz>")
+    rpy = floats(el.get("rpy"), 3, default=[0.0, 0.0, 0.0], what=f"{what} <origin rpy>")
+    return transform(rotation_from_rpy(rpy), xyz)
+
+
+def _urdf_limits(el: ET.Element, jtype: str, what: str, label: str):
+    lim = el.find("limit")
+    vmax = None
+    lo = hi = None
+    if lim is not None:
+        v = float_attr(lim, "velocity", what=f"{what} <limit>")
+        if v is not None:
+            if v < 0:
+                raise ImportModelError(f"{label}: {what} <limit velocity={v}> must be >= 0 [rad/s or m/s]",
+                                       element=what)
+            vmax = v if v > 0 else None
+        lo = float_attr(lim, "lower", what=f"{what} <limit>")
+        hi = float_attr(lim, "upper", what=f"{what} <limit>")
+    if jtype == "continuous":
+        return None, vmax
+    if lim is None:
+        raise ImportModelError(f"{label}: {what} ({jtype}) has no <limit> element; URDF requires "
+                               "<limit lower upper velocity effort> (use type 'continuous' for an "
+                               "unlimited revolute joint)", element=what)
+    lo = 0.0 if lo is None else lo
+    hi = 0.0 if hi is None else hi
+    if not lo < hi:
+        raise ImportModelError(f"{label}: {what} <limit lower={lo} upper={hi}>: lower must be below "
+                               "upper", element=what)
+    return (lo, hi), vmax

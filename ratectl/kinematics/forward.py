@@ -1,0 +1,260 @@
+"""Forward kinematics and the geometric Jacobian, on chain-specialised generated code.
+
+All functions take a :class:`~ratectl.Chain` and joint positions ``q`` of shape
+``(n,)`` or ``(..., n)`` and broadcast over the leading dimensions.
+
+The Jacobian maps q̇ to the tool twist ``ξ = [v; ω]``; by default its rows are in
+base axes and the linear rows are taken at the tool origin. Column i is
+
+* revolute:  ``[ z_i × (p − o_i) ; z_i ]``
+* prismatic: ``[ z_i ; 0 ]``
+
+where ``z_i`` is the joint's world axis and ``o_i`` a point on it.
+
+``fk`` and ``jacobian`` run chain-specialised generated code
+(:mod:`ratectl.kinematics.codegen`): one configuration on Python floats, a batch on
+numpy arrays in chunks. With the environment variable ``RATECTL_KERNELS=reference``
+set before ratectl is imported, every kernel is replaced by the plain reference
+implementation (:mod:`ratectl.kinematics.reference`), for debugging.
+
+Thread safety: kernels are compiled once per chain and are pure functions; batched
+calls use per-thread work buffers. Any number of threads may evaluate the same chain.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+
+import numpy as np
+
+from ..errors import InputError
+from .codegen import compile_kernel
+from .reference import reference_fk_jacobian
+
+__all__ = [
+    "fk",
+    "jacobian",
+    "fk_jacobian",
+    "shift_jacobian",
+    "rotate_jacobian",
+    "refer_jacobian",
+    "check_frame",
+    "check_point",
+    "build_kernel",
+    "kernel_source",
+    "KERNEL_MODE",
+]
+
+KERNEL_MODE = "reference" if os.environ.get("RATECTL_KERNELS", "").strip().lower() == "reference" \
+    else "generated"
+"""``"generated"`` (default) or ``"reference"`` (``RATECTL_KERNELS=reference`` at import)."""
+
+_CHUNK = 8192  # columns per batched kernel call: fits L2, amortises ufunc overhead
+_FRAMES = ("base", "tool")
+
+
+def build_kernel(chain, key):
+    """Compile (once per chain) and cache the generated kernel ``key = (what, batched)``.
+
+    ``what`` is ``"fk"``, ``"jac"`` or ``"fkjac"``. In reference mode the kernel is a
+    wrapper with the same calling convention around :func:`reference_fk_jacobian`.
+    """
+    fn = chain._kernels.get(key)
+    if fn is None:
+        what, batched = key
+        if KERNEL_MODE == "reference":
+            fn = _reference_kernel(chain, what, batched)
+        else:
+            fn = compile_kernel(chain.joints, chain.base, chain.tool, what=what, batched=batched,
+                                label=chain.name)
+        chain._kernels[key] = fn
+    return fn
+
+
+def kernel_source(chain, what: str = "fkjac", *, batched: bool = False) -> str:
+    """The generated Python source of ``chain``'s kernel (``what`` in "fk", "jac", "fkjac").
+
+    The same text is registered with :mod:`linecache`, so tracebacks, :func:`inspect.getsource`
+    and pdb show it.
+    """
+    if what not in ("fk", "jac", "fkjac"):
+        raise InputError(f"what must be 'fk', 'jac' or 'fkjac', got {what!r}", argument="what",
+                         value=what)
+    fn = compile_kernel(chain.joints, chain.base, chain.tool, what=what, batched=batched,
+                        label=chain.name)
+    return fn.__source__
+
+
+def _reference_kernel(chain, what: str, batched: bool):
+    n = chain.dof
+
+    def flat(q):
+        T, J = reference_fk_jacobian(chain, q)
+        parts = []
+        if what in ("fk", "fkjac"):
+            parts.append(T.reshape(T.shape[:-2] + (16,)))
+        if what in ("jac", "fkjac"):
+            parts.append(J.reshape(J.shape[:-2] + (6 * n,)))
+        return np.concatenate(parts, axis=-1)
+
+    if not batched:
+        def kernel(*q):
+            return tuple(flat(np.array(q, dtype=float)).tolist())
+    else:
+        def kernel(q, out, first):
+            out[...] = flat(np.ascontiguousarray(q.T)).T
+            return out
+    return kernel
+
+
+def _kernel(chain, what: str, batched: bool):
+    return build_kernel(chain, (what, batched))
+
+
+def _single(chain, q):
+    """Return q as a list of n Python floats when q is one valid configuration, else None."""
+    if type(q) is np.ndarray and q.shape == (chain._n,) and q.dtype == np.float64:
+        vals = q.tolist()
+    elif isinstance(q, (list, tuple)) and len(q) == chain._n:
+        try:
+            vals = [float(x) for x in q]
+        except (TypeError, ValueError):
+            return None
+    else:
+        return None
+    s = sum(vals)
+    if s - s != 0.0:  # NaN or inf somewhere
+        return None
+    return vals
+
+
+_tls = threading.local()
+
+
+def _work_buffers(n: int, width: int, m: int):
+    """Per-thread kernel work buffers (width, m) and (n, m), reused across calls: fresh
+    multi-megabyte buffers cost a page fault per 4 kB on first touch, which at B = 10⁴
+    was a third of the batched Jacobian's time."""
+    cache = getattr(_tls, "buffers", None)
+    if cache is None:
+        cache = _tls.buffers = {}
+    key = (n, width, m)
+    bufs = cache.get(key)
+    if bufs is None:
+        if len(cache) >= 4:  # a few (n, width, chunk) shapes; ~2.5 MB each at most
+            cache.clear()
+        bufs = cache[key] = (np.empty((width, m)), np.empty((n, m)))
+    return bufs
+
+
+def _run(chain, q, what: str, width: int):
+    """Evaluate a kernel; returns (flat values (..., width), batch shape)."""
+    vals = _single(chain, q)
+    if vals is not None:
+        return np.array(_kernel(chain, what, False)(*vals)), ()
+    a = chain.check_q(q)
+    batch = a.shape[:-1]
+    if batch == ():
+        return np.array(_kernel(chain, what, False)(*a.tolist())), ()
+    flat = a.reshape(-1, chain._n)
+    B = flat.shape[0]
+    out = np.empty((B, width))
+    kern = _kernel(chain, what, True)
+    m0 = min(B, _CHUNK)
+    buf, qbuf = _work_buffers(chain._n, width, m0)
+    for start in range(0, B, _CHUNK):
+        stop = min(start + _CHUNK, B)
+        m = stop - start
+        if m == m0:
+            b, qc = buf, qbuf
+        else:
+            b, qc = np.empty((width, m)), np.empty((chain._n, m))
+        qc[...] = flat[start:stop].T
+        kern(qc, b, start == 0 or b is not buf)
+        out[start:stop] = b.T
+    return out, batch
+
+
+def fk(chain, q) -> np.ndarray:
+    """Pose of the tool in the world, ``T_world_tool = base · A_1 ⋯ A_n · tool``, (..., 4, 4)."""
+    vals, batch = _run(chain, q, "fk", 16)
+    return vals.reshape(batch + (4, 4))
+
+
+def check_frame(frame):
+    if frame not in _FRAMES:
+        raise InputError(f"frame must be 'base' or 'tool', got {frame!r}",
+                         argument="frame", value=frame)
+
+
+def check_point(point):
+    p = np.asarray(point, dtype=float)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise InputError("point must be a finite 3-vector in tool-frame coordinates [m], "
+                         f"got {point!r}", argument="point", value=point)
+    return p
+
+
+def shift_jacobian(J, r) -> np.ndarray:
+    """Refer a base-axes Jacobian's linear rows to a point displaced by ``r`` [m] (base axes).
+
+    ``v' = v + ω × r``, so ``J_v' = J_v − [r]× J_ω``.
+    """
+    J = np.asarray(J, dtype=float)
+    r = np.asarray(r, dtype=float)
+    out = J.copy()
+    Jw = J[..., 3:, :]
+    rx, ry, rz = r[..., 0, None], r[..., 1, None], r[..., 2, None]
+    out[..., 0, :] -= ry * Jw[..., 2, :] - rz * Jw[..., 1, :]
+    out[..., 1, :] -= rz * Jw[..., 0, :] - rx * Jw[..., 2, :]
+    out[..., 2, :] -= rx * Jw[..., 1, :] - ry * Jw[..., 0, :]
+    return out
+
+
+def rotate_jacobian(J, R) -> np.ndarray:
+    """Express a Jacobian's rows in the axes of a frame with world rotation ``R``: blockdiag(Rᵀ, Rᵀ)·J."""
+    J = np.asarray(J, dtype=float)
+    Rt = np.swapaxes(np.asarray(R, dtype=float), -1, -2)
+    out = np.empty(np.broadcast_shapes(J.shape, Rt.shape[:-2] + J.shape[-2:]))
+    out[..., :3, :] = Rt @ J[..., :3, :]
+    out[..., 3:, :] = Rt @ J[..., 3:, :]
+    return out
+
+
+def refer_jacobian(J, T, frame, point):
+    if point is not None:
+        p = check_point(point)
+        J = shift_jacobian(J, T[..., :3, :3] @ p)
+    if frame == "tool":
+        J = rotate_jacobian(J, T[..., :3, :3])
+    return J
+
+
+def jacobian(chain, q, *, frame: str = "base", point=None) -> np.ndarray:
+    """Geometric Jacobian ``J(q)`` (..., 6, n) with rows ``[v; ω]``.
+
+    Args:
+        frame: ``"base"``: rows in world axes (default); ``"tool"``: in tool axes.
+        point: reference point of the linear rows, given in tool-frame coordinates
+            [m]; default the tool origin.
+    """
+    n = chain._n
+    if frame == "base" and point is None:
+        vals, batch = _run(chain, q, "jac", 6 * n)
+        return vals.reshape(batch + (6, n))
+    check_frame(frame)
+    T, J = fk_jacobian(chain, q)
+    return refer_jacobian(J, T, frame, point)
+
+
+def fk_jacobian(chain, q, *, frame: str = "base", point=None):
+    """``(T_world_tool, J)`` evaluated together; see :func:`fk` and :func:`jacobian`."""
+    n = chain._n
+    vals, batch = _run(chain, q, "fkjac", 16 + 6 * n)
+    T = vals[..., :16].reshape(batch + (4, 4))
+    J = vals[..., 16:].reshape(batch + (6, n))
+    if frame == "base" and point is None:
+        return T, J
+    check_frame(frame)
+    return T, refer_jacobian(J, T, frame, point)

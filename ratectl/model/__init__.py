@@ -1,0 +1,14 @@
+"""The robot model: joints (DH, modified DH, general), the chain, built-in robots.
+
+* :mod:`~ratectl.model.joints` — :class:`DH`, :class:`MDH` table rows and the general :class:`Joint`;
+* :mod:`~ratectl.model.chain` — :class:`Chain`: joints, base and tool, limits, kinematics methods;
+* :mod:`~ratectl.model.robots` — UR5e, Panda, PUMA 560, Stanford, iiwa7, RPR, planar 2R.
+"""
+
+from __future__ import annotations
+
+from . import robots
+from .chain import Chain
+from .joints import DH, JOINT_KINDS, MDH, Joint
+
+__all__ = ["DH", "MDH", "Joint", "Chain", "JOINT_KINDS", "robots"]

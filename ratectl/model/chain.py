@@ -1,0 +1,365 @@
+"""The robot model: a serial chain of revolute and prismatic joints (:class:`Chain`).
+
+A chain is built from a standard (:class:`~ratectl.model.joints.DH`) or modified/Craig
+(:class:`~ratectl.model.joints.MDH`) Denavit–Hartenberg table, from URDF or MJCF
+(parsed by :mod:`ratectl.io`), or directly from :class:`~ratectl.model.joints.Joint`
+objects. The kinematics (``fk``, ``jacobian``, ...) live in :mod:`ratectl.kinematics`;
+the chain exposes them as methods.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import kinematics
+from ..errors import ImportModelError, InputError, ModelError
+from ..io.description import ModelDescription
+from .joints import DH, MDH, Joint, check_transform
+
+__all__ = ["Chain"]
+
+
+class Chain:
+    """A serial robot arm: joints, base and tool transforms, limits and names.
+
+    Build one with :meth:`from_dh`, :meth:`from_mdh`, the importers, or from
+    :class:`Joint` objects. A chain is immutable; :meth:`with_tool` and
+    :meth:`with_base` return new chains.
+
+    Kinematics methods (all broadcast over leading dimensions of ``q``):
+    :meth:`fk`, :meth:`frames`, :meth:`jacobian`, :meth:`fk_jacobian`,
+    :meth:`jacobian_dot`, :meth:`joint_axes`, :meth:`joint_torques`.
+    """
+
+    def __init__(self, joints, *, base=None, tool=None, name: str = "chain",
+                 table: tuple | None = None, characteristic_length: float | None = None):
+        joints = tuple(joints)
+        if not joints:
+            raise ModelError("a chain needs at least one joint", field="joints")
+        for k, j in enumerate(joints):
+            if not isinstance(j, Joint):
+                raise ModelError(f"joint {k} must be a ratectl.Joint, got {type(j).__name__}",
+                                 joint=k, value=j)
+        self._joints = joints
+        self._base = check_transform(base, "base")
+        self._tool = check_transform(tool, "tool")
+        self._base.setflags(write=False)
+        self._tool.setflags(write=False)
+        self._name = str(name)
+        self._table = table
+        self._n = len(joints)
+        self._qshape = (self._n,)
+        self._lower = np.array([j.qlim[0] for j in joints])
+        self._upper = np.array([j.qlim[1] for j in joints])
+        self._vmax = np.array([j.vmax for j in joints])
+        self._amax = np.array([j.amax for j in joints])
+        self._jmax = np.array([j.jmax for j in joints])
+        for a in (self._lower, self._upper, self._vmax, self._amax, self._jmax):
+            a.setflags(write=False)
+        self._prismatic = np.array([j.kind == "prismatic" for j in joints])
+        if characteristic_length is None:
+            characteristic_length = self.reach()
+        if not (characteristic_length > 0 and math.isfinite(characteristic_length)):
+            raise ModelError("characteristic_length must be a positive length [m], "
+                             f"got {characteristic_length!r}", field="characteristic_length")
+        self._length = float(characteristic_length)
+        self._kernels: dict = {}
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_dh(cls, rows, *, base=None, tool=None, name: str = "chain",
+                characteristic_length: float | None = None) -> Chain:
+        """Chain from a standard DH table (a list of :class:`DH` rows)."""
+        rows = cls._check_rows(rows, DH)
+        joints = [r.to_joint(k) for k, r in enumerate(rows)]
+        return cls(joints, base=base, tool=tool, name=name, table=tuple(rows),
+                   characteristic_length=characteristic_length)
+
+    @classmethod
+    def from_mdh(cls, rows, *, base=None, tool=None, name: str = "chain",
+                 characteristic_length: float | None = None) -> Chain:
+        """Chain from a modified (Craig) DH table (a list of :class:`MDH` rows)."""
+        rows = cls._check_rows(rows, MDH)
+        joints = [r.to_joint(k) for k, r in enumerate(rows)]
+        return cls(joints, base=base, tool=tool, name=name, table=tuple(rows),
+                   characteristic_length=characteristic_length)
+
+    @staticmethod
+    def _check_rows(rows, kind):
+        rows = list(rows)
+        if not rows:
+            raise ModelError("a DH table needs at least one row", field="rows")
+        for k, r in enumerate(rows):
+            if type(r) is not kind:
+                other = "from_mdh" if kind is DH else "from_dh"
+                raise ModelError(
+                    f"row {k} is a {type(r).__name__}, expected {kind.__name__}"
+                    f"{f' (use Chain.{other} for {type(r).__name__} rows)' if isinstance(r, DH) else ''}",
+                    joint=k, value=r)
+        return rows
+
+    @classmethod
+    def from_urdf(cls, source, *, tip: str | None = None, base_link: str | None = None,
+                  name: str | None = None) -> Chain:
+        """Chain from a URDF file path or the URDF text itself (see :mod:`ratectl.io.urdf`).
+
+        Args:
+            source: path to a ``.urdf`` file, or the XML text (a ``str`` starting with ``<``),
+                or bytes — e.g. the URDF a robot reports about itself.
+            tip: the link that becomes the tool frame (required where the tree branches).
+            base_link: the link that becomes the base frame (default: the root link).
+            name: chain name (default: the ``<robot name>``).
+        """
+        from ..io.urdf import parse_urdf
+
+        return cls.from_description(parse_urdf(source, tip=tip, base_link=base_link, name=name))
+
+    @classmethod
+    def from_mjcf(cls, path_or_model, *, tip: str | None = None,
+                  name: str | None = None) -> Chain:
+        """Chain from an MJCF file, its text, or a compiled ``mujoco.MjModel``
+        (see :mod:`ratectl.io.mjcf`)."""
+        from ..io.mjcf import parse_mjcf
+
+        return cls.from_description(parse_mjcf(path_or_model, tip=tip, name=name))
+
+    @classmethod
+    def from_description(cls, description: ModelDescription) -> Chain:
+        """Chain from what a model file says (:class:`ratectl.io.description.ModelDescription`).
+
+        Raises:
+            ImportModelError: a joint's transform or limits are not acceptable; the
+                message names the file and the element.
+        """
+        joints = []
+        for jd in description.joints:
+            try:
+                joints.append(Joint(kind=jd.kind, pre=jd.pre, post=jd.post, name=jd.name,
+                                    qlim=jd.qlim, vmax=jd.vmax))
+            except ModelError as exc:
+                raise ImportModelError(f"{description.label}: {jd.element}: {exc}",
+                                       element=jd.element) from None
+        try:
+            return cls(joints, tool=description.tool, name=description.name)
+        except ModelError as exc:
+            raise ImportModelError(f"{description.label}: {exc}", element=str(exc.field)) from None
+
+    def with_tool(self, tool) -> Chain:
+        """The same chain with another tool transform (flange → tool, 4×4)."""
+        return Chain(self._joints, base=self._base, tool=tool, name=self._name,
+                     table=self._table, characteristic_length=self._length)
+
+    def with_base(self, base) -> Chain:
+        """The same chain with another base transform (world → frame 0, 4×4)."""
+        return Chain(self._joints, base=base, tool=self._tool, name=self._name,
+                     table=self._table, characteristic_length=self._length)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def dof(self) -> int:
+        """Number of joints n."""
+        return self._n
+
+    @property
+    def name(self) -> str:
+        return self._name
+
+    @property
+    def joints(self) -> tuple[Joint, ...]:
+        return self._joints
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self._joints)
+
+    @property
+    def table(self) -> tuple | None:
+        """The DH/MDH rows the chain was built from, if any."""
+        return self._table
+
+    @property
+    def base(self) -> np.ndarray:
+        """World → frame 0 transform (read-only 4×4)."""
+        return self._base
+
+    @property
+    def tool(self) -> np.ndarray:
+        """Frame n → tool transform (read-only 4×4)."""
+        return self._tool
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Lower joint position limits [rad or m], −inf where absent."""
+        return self._lower
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper joint position limits [rad or m], +inf where absent."""
+        return self._upper
+
+    @property
+    def qlim(self) -> np.ndarray:
+        """Joint position limits as a (n, 2) array of (lower, upper)."""
+        return np.stack([self._lower, self._upper], axis=1)
+
+    @property
+    def vmax(self) -> np.ndarray:
+        """Joint velocity limits [rad/s or m/s], inf where absent."""
+        return self._vmax
+
+    @property
+    def amax(self) -> np.ndarray:
+        """Joint acceleration limits [rad/s² or m/s²], inf where absent."""
+        return self._amax
+
+    @property
+    def jmax(self) -> np.ndarray:
+        """Joint jerk limits [rad/s³ or m/s³], inf where absent."""
+        return self._jmax
+
+    @property
+    def prismatic(self) -> np.ndarray:
+        """Boolean mask of prismatic joints."""
+        return self._prismatic
+
+    @property
+    def characteristic_length(self) -> float:
+        """Length L [m] that makes linear and angular rows comparable (default: reach)."""
+        return self._length
+
+    def reach(self) -> float:
+        """Sum of the constant link translations [m] (an upper bound on the reach at q = 0
+        for revolute arms; prismatic travel not included). At least 1e-3 m."""
+        total = float(np.linalg.norm(self._tool[:3, 3]))
+        for j in self._joints:
+            total += float(np.linalg.norm(j.pre[:3, 3]) + np.linalg.norm(j.post[:3, 3]))
+        return max(total, 1e-3)
+
+    # ------------------------------------------------------------------ helpers
+    def check_q(self, q, *, name: str = "q") -> np.ndarray:
+        """Validate ``q`` (shape (..., n), finite) and return it as a float array."""
+        try:
+            a = np.asarray(q, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"{name} must be an array of {self._n} joint values, got {q!r}",
+                             argument=name, value=q) from None
+        if a.ndim == 0 or a.shape[-1] != self._n:
+            raise InputError(
+                f"{name} must have shape ({self._n},) or (..., {self._n}) — one value per joint "
+                f"of {self._name!r} — got shape {a.shape}", argument=name, value=a)
+        if not np.all(np.isfinite(a)):
+            raise InputError(f"{name} must be finite; got NaN or inf at index "
+                             f"{np.argwhere(~np.isfinite(a))[0].tolist()}", argument=name, value=a)
+        return a
+
+    def within_limits(self, q, *, tolerance: float = 0.0) -> np.ndarray:
+        """True where every joint of q lies within [lower − tol, upper + tol]."""
+        a = self.check_q(q)
+        return np.all((a >= self._lower - tolerance) & (a <= self._upper + tolerance), axis=-1)
+
+    def random_q(self, size=None, *, rng=None, margin: float = 0.0) -> np.ndarray:
+        """Random configurations, uniform within the limits (±π, or ±1 m, where unlimited).
+
+        Args:
+            size: batch shape (None for a single (n,) configuration).
+            rng: a ``numpy.random.Generator`` or seed.
+            margin: keep this far inside the limits [rad or m].
+        """
+        rng = np.random.default_rng(rng)
+        default = np.where(self._prismatic, 1.0, math.pi)
+        lo = np.where(np.isfinite(self._lower), self._lower, -default) + margin
+        hi = np.where(np.isfinite(self._upper), self._upper, default) - margin
+        shape = (self._n,) if size is None else tuple(np.atleast_1d(size)) + (self._n,)
+        return lo + (hi - lo) * rng.random(shape)
+
+    def __repr__(self) -> str:
+        kinds = "".join("RP"[int(p)] for p in self._prismatic)
+        return f"Chain(name={self._name!r}, dof={self._n}, joints={kinds})"
+
+    def describe(self) -> str:
+        """A multi-line table of the model (joints, kinds, limits)."""
+        lines = [f"{self._name}: {self._n} joints"]
+        if self._table is not None:
+            conv = self._table[0].convention
+            lines.append(f"{conv} DH table (a [m], alpha [rad], d [m], theta [rad])")
+            for k, r in enumerate(self._table):
+                lines.append(f"  {k + 1}: {r.joint:9s} a={r.a:+.4f} alpha={r.alpha:+.4f} "
+                             f"d={r.d:+.4f} theta={r.theta:+.4f}")
+        lines.append("limits: name, qlim, vmax, amax, jmax")
+        for j in self._joints:
+            lines.append(f"  {j.name:12s} [{j.qlim[0]:+.4f}, {j.qlim[1]:+.4f}] "
+                         f"{j.vmax:.4g} {j.amax:.4g} {j.jmax:.4g}")
+        return "\n".join(lines)
+
+    # ------------------------------------------------------------------ kinematics
+    # The single-configuration fast paths are inlined here (no further Python calls
+    # than the generated kernel and one numpy conversion); everything else is in
+    # :mod:`ratectl.kinematics`.
+    def fk(self, q) -> np.ndarray:
+        """Base-to-tool pose ``T_world_tool`` (..., 4, 4) at q (..., n)."""
+        if type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64:
+            v = q.tolist()
+            s = sum(v)
+            if s - s == 0.0:
+                k = self._kernels.get(_FK) or kinematics.build_kernel(self, _FK)
+                return np.array(k(*v), dtype=_F64).reshape(4, 4)
+        return kinematics.fk(self, q)
+
+    def jacobian(self, q, *, frame: str = "base", point=None) -> np.ndarray:
+        """Geometric Jacobian (..., 6, n), rows [v; ω].
+
+        Args:
+            q: joint positions (..., n).
+            frame: ``"base"`` (rows in world/base axes) or ``"tool"`` (tool axes).
+            point: reference point for the linear rows, as coordinates in the tool
+                frame [m] (a point fixed to the tool); default the tool origin.
+        """
+        if (type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64
+                and frame == "base" and point is None):
+            v = q.tolist()
+            s = sum(v)
+            if s - s == 0.0:
+                k = self._kernels.get(_JAC) or kinematics.build_kernel(self, _JAC)
+                return np.array(k(*v), dtype=_F64).reshape(6, self._n)
+        return kinematics.jacobian(self, q, frame=frame, point=point)
+
+    def fk_jacobian(self, q, *, frame: str = "base", point=None):
+        """``(fk(q), jacobian(q))`` computed together (cheaper than two calls)."""
+        if (type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64
+                and frame == "base" and point is None):
+            v = q.tolist()
+            s = sum(v)
+            if s - s == 0.0:
+                k = self._kernels.get(_FKJAC) or kinematics.build_kernel(self, _FKJAC)
+                a = np.array(k(*v), dtype=_F64)
+                return a[:16].reshape(4, 4), a[16:].reshape(6, self._n)
+        return kinematics.fk_jacobian(self, q, frame=frame, point=point)
+
+    def frames(self, q) -> np.ndarray:
+        """All DH frames ``T_0 … T_n`` in the world, (..., n+1, 4, 4) (T_0 is the base)."""
+        return kinematics.frames(self, q)
+
+    def joint_axes(self, q):
+        """World axis (unit, ..., n, 3) and a point on it (..., n, 3) for every joint."""
+        return kinematics.joint_axes(self, q)
+
+    def jacobian_dot(self, q, qd, *, frame: str = "base", point=None) -> np.ndarray:
+        """Time derivative J̇(q, q̇) (..., 6, n), so that the tool acceleration is J q̈ + J̇ q̇."""
+        return kinematics.jacobian_dot(self, q, qd, frame=frame, point=point)
+
+    def kernel_source(self, what: str = "fkjac", *, batched: bool = False) -> str:
+        """The generated Python source behind :meth:`fk`/:meth:`jacobian` (``what``: "fk",
+        "jac" or "fkjac"), for reading and debugging; see :mod:`ratectl.kinematics.codegen`."""
+        return kinematics.kernel_source(self, what, batched=batched)
+
+    def joint_torques(self, q, wrench, *, frame: str = "base", point=None) -> np.ndarray:
+        """Static joint torques τ = Jᵀ F for a tool wrench F = [f; τ], in N and N·m."""
+        return kinematics.joint_torques(self, q, wrench, frame=frame, point=point)
+
+
+_F64 = np.dtype(np.float64)
+_FK = ("fk", False)
+_JAC = ("jac", False)
+_FKJAC = ("fkjac", False)

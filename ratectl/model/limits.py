@@ -1,0 +1,146 @@
+"""Joint limits and how fast a joint may move toward a position limit.
+
+:class:`Limits` is the four per-joint arrays every limit-aware computation needs
+(``lower``, ``upper`` [rad or m], ``vmax``, ``amax`` magnitudes; ±inf where absent). A
+:class:`~ratectl.Chain` carries the same arrays (plus ``jmax``) and is accepted wherever
+limits are.
+
+Braking toward a position limit at distance d has one home here, in the two motion
+models the package uses:
+
+* acceleration-limited, in steps of dt (the QP's and the unsmoothed controller's bound):
+  :func:`braking_speed_discrete`, the exact discrete form of √(2·amax·d);
+* jerk-limited, continuous (what Ruckig's time-optimal stop does, for smoothed control):
+  :func:`stopping_distance` and its inverse :func:`braking_speed`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["Limits", "braking_speed_discrete", "stopping_distance", "braking_speed"]
+
+
+@dataclass(frozen=True, slots=True)
+class Limits:
+    """Joint limits in SI units; ±inf where absent. Shapes (n,).
+
+    Attributes:
+        lower, upper: position limits [rad or m].
+        vmax: velocity limits (magnitudes) [rad/s or m/s].
+        amax: acceleration limits (magnitudes) [rad/s² or m/s²].
+    """
+
+    lower: np.ndarray
+    upper: np.ndarray
+    vmax: np.ndarray
+    amax: np.ndarray
+
+    def __post_init__(self) -> None:
+        for name in ("lower", "upper", "vmax", "amax"):
+            try:
+                a = np.array(getattr(self, name), dtype=float)
+            except (TypeError, ValueError):
+                raise InputError(f"Limits.{name} must be an array of numbers, got "
+                                 f"{getattr(self, name)!r}", argument=name,
+                                 value=getattr(self, name)) from None
+            if a.ndim != 1:
+                raise InputError(f"Limits.{name} must be a 1-D array (one value per joint), got "
+                                 f"shape {a.shape}", argument=name, value=a)
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+        if not (self.lower.shape == self.upper.shape == self.vmax.shape == self.amax.shape):
+            raise InputError("Limits.lower, upper, vmax and amax must have the same length",
+                             argument="limits", value=self)
+
+    @classmethod
+    def of(cls, obj, n: int) -> Limits:
+        """Limits from a Chain, a Limits, any object with those four arrays, or None
+        (unlimited)."""
+        if obj is None:
+            inf = np.full(n, math.inf)
+            return cls(-inf, inf, inf, inf)
+        if type(obj) is cls and obj.lower.shape == (n,):
+            return obj
+        try:
+            arrs = [np.asarray(getattr(obj, k), dtype=float) for k in ("lower", "upper", "vmax", "amax")]
+        except AttributeError:
+            raise InputError("limits must have arrays lower, upper, vmax, amax (a Chain or "
+                             f"ratectl.solvers.Limits), got {type(obj).__name__}",
+                             argument="limits", value=obj) from None
+        for name, a in zip(("lower", "upper", "vmax", "amax"), arrs, strict=True):
+            if a.shape != (n,):
+                raise InputError(f"limits.{name} must have one value per joint ({n}), got shape "
+                                 f"{a.shape}", argument="limits", value=obj)
+            if np.any(np.isnan(a)):
+                raise InputError(f"limits.{name} contains NaN", argument="limits", value=obj)
+        if np.any(arrs[2] <= 0) or np.any(arrs[3] <= 0):
+            raise InputError("limits.vmax and limits.amax must be positive magnitudes (inf where "
+                             "absent)", argument="limits", value=obj)
+        if np.any(arrs[0] > arrs[1]):
+            raise InputError("limits.lower must not exceed limits.upper", argument="limits", value=obj)
+        return cls(*arrs)
+
+
+def braking_speed_discrete(D, adt, inv_adt2, inv_dt):
+    """Largest speed toward a limit at distance D (≥ 0) [rad or m] from which the joint
+    can still stop before it, braking by at most a·dt per step of dt (arguments: D, a·dt,
+    1/(a·dt²), 1/dt — precomputed by the caller, this runs every control cycle):
+
+    the braking sequence v, v − a·dt, v − 2a·dt, … (down to 0) covers
+    D(v) = a·dt²·((k + 1)·f + k(k + 1)/2) for v = (k + f)·a·dt (k integer, 0 ≤ f < 1);
+    this inverts it exactly: u = D/(a·dt²), k = ⌊(√(8u + 1) − 1)/2⌋,
+    f = min((u − k(k + 1)/2)/(k + 1), 1), v = (k + f)·a·dt. It is the discrete form of
+    √(2a·D) and includes D/dt (k = 0: stop exactly at the limit within this step), and it
+    is consistent with the acceleration bound: from v the next step's bound is ≥ v − a·dt.
+    For D < 0 (beyond the limit) it returns D/dt (move back).
+    """
+    Dp = np.maximum(D, 0.0)
+    u = Dp * inv_adt2
+    k = np.floor(0.5 * (np.sqrt(8.0 * u + 1.0) - 1.0))
+    f = np.minimum((u - 0.5 * k * (k + 1.0)) / (k + 1.0), 1.0)
+    return (k + f) * adt + np.minimum(D, 0.0) * inv_dt
+
+
+def stopping_distance(v, a, amax, jmax) -> np.ndarray:
+    """Distance a joint travels while a time-optimal jerk-limited stop brings it from
+    velocity ``v`` ≥ 0 and acceleration ``a`` to rest (|q̈| ≤ amax, |q⃛| ≤ jmax); arrays
+    broadcast. Units: rad (or m) for rad/s, rad/s², rad/s³.
+
+    From rest acceleration (a = 0) the stop is a symmetric S-curve, so D = v·T/2:
+
+        D₀(v) = v^{3/2}/√J                    for v ≤ A²/J (peak deceleration √(Jv) < A),
+        D₀(v) = v²/(2A) + v·A/(2J)            otherwise (deceleration held at A).
+
+    With a > 0 (still speeding up) the jerk first brings a to 0 in a/J, adding
+    v·a/J + a³/(3J²) of travel and a²/(2J) of speed: D = v·a/J + a³/(3J²) + D₀(v + a²/(2J)).
+    A negative a (already braking) is counted as 0, which over-estimates D (safe side).
+    """
+    v = np.maximum(np.asarray(v, dtype=float), 0.0)
+    a = np.maximum(np.asarray(a, dtype=float), 0.0)
+    A = np.asarray(amax, dtype=float)
+    J = np.asarray(jmax, dtype=float)
+    lead = v * a / J + a**3 / (3.0 * J * J)
+    w = v + a * a / (2.0 * J)
+    d0 = np.where(w <= A * A / J, w * np.sqrt(w / J), w * w / (2.0 * A) + w * A / (2.0 * J))
+    return lead + d0
+
+
+def braking_speed(d, amax, jmax) -> np.ndarray:
+    """The largest speed from which a joint at zero acceleration can still stop within
+    the distance ``d`` ≥ 0 under |q̈| ≤ amax, |q⃛| ≤ jmax: the inverse of
+    :func:`stopping_distance` at a = 0,
+
+        v = (d·√J)^{2/3}                                   for d ≤ A³/J²,
+        v = (−A²/J + √(A⁴/J² + 8·A·d))/2                   otherwise.
+    """
+    d = np.maximum(np.asarray(d, dtype=float), 0.0)
+    A = np.asarray(amax, dtype=float)
+    J = np.asarray(jmax, dtype=float)
+    k = A * A / J
+    return np.where(d <= A**3 / (J * J), np.cbrt(d * d * J), 0.5 * (-k + np.sqrt(k * k + 8.0 * A * d)))

@@ -1,0 +1,37 @@
+"""Argument checks shared by the path classes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InputError
+from ..spatial import rigid_transform_defect
+
+
+def _positive(value, name: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a positive number, got {value!r}", argument=name,
+                         value=value) from None
+    if not (v > 0.0 and math.isfinite(v)):
+        raise InputError(f"{name} must be a positive finite number, got {value!r}", argument=name,
+                         value=value)
+    return v
+
+
+def _pose(T, name: str) -> np.ndarray:
+    defect = rigid_transform_defect(T)
+    if defect is not None:
+        raise InputError(f"{name} {defect}", argument=name, value=T)
+    return np.array(T, dtype=float)
+
+
+def _vec3(v, name: str) -> np.ndarray:
+    a = np.asarray(v, dtype=float)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise InputError(f"{name} must be a finite 3-vector, got {v!r}", argument=name, value=v)
+    return a

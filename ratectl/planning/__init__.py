@@ -1,0 +1,15 @@
+"""Planning: inverse kinematics, joint paths along Cartesian paths, the path-speed governor.
+
+* :mod:`~ratectl.planning.ik` — :func:`ik`, damped Newton IK (the package's one IK);
+* :mod:`~ratectl.planning.joint_path` — q(s) along a path, corrected onto it;
+* :mod:`~ratectl.planning.topp` — admissible path speed from joint limits;
+* :mod:`~ratectl.planning.governor` — :class:`Governor`, the jerk-limited progress plan.
+"""
+
+from __future__ import annotations
+
+from .governor import Governor, GovernorPlan, plan
+from .ik import IKResult, ik
+from .joint_path import JointPath, joint_path
+
+__all__ = ["ik", "IKResult", "Governor", "GovernorPlan", "JointPath", "joint_path", "plan"]

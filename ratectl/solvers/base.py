@@ -1,0 +1,354 @@
+"""The common parts of every inverse-velocity solver: :class:`Limits`, :class:`SolveResult`,
+the :class:`Solver` base class (weights, the velocity-limit policy, input checks).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import lapack as _lapack
+
+from ..errors import InputError, RatectlError, SolverError
+from ..model.limits import Limits
+
+__all__ = ['SolveResult', 'Solver', 'POSITION_ONLY', 'ORIENTATION_ONLY', 'VELOCITY_POLICIES']
+
+
+VELOCITY_POLICIES = ("scale", "clip", None)
+
+
+#: Task weights for a position-only task (the angular rows are ignored).
+POSITION_ONLY = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)
+
+
+#: Task weights for an orientation-only task (the linear rows are ignored).
+ORIENTATION_ONLY = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0)
+
+
+_F64 = np.dtype(np.float64)
+
+
+_dot = np.dot
+
+
+_zeros = np.zeros
+
+
+_dposv = _lapack.dposv
+
+
+_dpotrf = _lapack.dpotrf
+
+
+_dsyev = _lapack.dsyev
+
+
+_dgesdd = _lapack.dgesdd
+
+
+_dgesv = _lapack.dgesv
+
+
+# --------------------------------------------------------------------------- limits
+# --------------------------------------------------------------------------- result
+class _LazySigma:
+    """σ_min of J computed on first access from the Gram matrix G (JJᵀ or JᵀJ, the
+    smaller), as √λ_min(G): about 1e-8 absolute accuracy near zero, exact enough for
+    reporting and scheduling. Keeps plain DLS free of an eigen-decomposition."""
+
+    __slots__ = ("G", "J")
+
+    def __init__(self, G, J=None):
+        self.G = G
+        self.J = J
+
+    def value(self) -> float:
+        G = self.G
+        if G is None:
+            J = self.J
+            G = J @ J.T if J.shape[0] <= J.shape[1] else J.T @ J
+        if G.shape[0] == 0:
+            return 0.0
+        w, _, info = _dsyev(G, compute_v=0)
+        return math.sqrt(max(float(w[0]), 0.0)) if info == 0 else math.nan
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class SolveResult:
+    """What an inverse-velocity solver returns.
+
+    Attributes:
+        qd: joint velocities (n,) [rad/s or m/s].
+        achieved: the twist actually produced, ``J q̇`` (m,).
+        task_error: ``ξ − J q̇`` (m,): what the solver gave up (damping, limits).
+        damping: damping λ used (0 for undamped solutions; the largest per-direction λ
+            for filtered damping).
+        sigma_min: smallest singular value of J (of the weighted J for weighted
+            solvers). Fixed-λ DLS computes it on first access (it is not needed for
+            the solution), so reading it costs ~2 µs there.
+        method: solver name ("inverse", "pinv", "dls", "adaptive-dls", "sdls", "qp", ...).
+        velocity_policy: the velocity-limit policy *applied*: "none", "scaled" or "clipped".
+        velocity_scale: the uniform factor applied by "scaled" (1.0 otherwise).
+        bound: (n,) booleans, joints that sit at an active bound.
+        limits_active: which kinds of limit bound: subset of
+            ("velocity", "position", "acceleration").
+        fallback: True when the requested method failed and a fallback answered.
+        info: extra numbers (solver-specific), e.g. rank, iteration counts.
+    """
+
+    qd: np.ndarray
+    achieved: np.ndarray
+    task_error: np.ndarray
+    damping: float
+    sigma_min: float
+    method: str
+    velocity_policy: str = "none"
+    velocity_scale: float = 1.0
+    bound: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    limits_active: tuple[str, ...] = ()
+    fallback: bool = False
+    info: dict = field(default_factory=dict)
+
+    # A hand-written __init__ (the dataclass keeps it): it stores the slots through their
+    # descriptors, ~2x cheaper than the generated frozen __init__ (this is a hot path).
+    def __init__(self, qd, achieved, task_error, damping, sigma_min, method,
+                 velocity_policy="none", velocity_scale=1.0, bound=None, limits_active=(),
+                 fallback=False, info=None):
+        s = _SETTERS
+        s[0](self, qd)
+        s[1](self, achieved)
+        s[2](self, task_error)
+        s[3](self, damping)
+        s[4](self, sigma_min)
+        s[5](self, method)
+        s[6](self, velocity_policy)
+        s[7](self, velocity_scale)
+        s[8](self, np.zeros(len(qd), dtype=bool) if bound is None else bound)
+        s[9](self, limits_active)
+        s[10](self, fallback)
+        s[11](self, {} if info is None else info)
+
+
+_FIELDS = ("qd", "achieved", "task_error", "damping", "sigma_min", "method", "velocity_policy",
+           "velocity_scale", "bound", "limits_active", "fallback", "info")
+
+
+_SETTERS = tuple(SolveResult.__dict__[f].__set__ for f in _FIELDS)
+
+
+# σ_min may be stored lazily: replace the slot's attribute by a property over the slot.
+_SIGMA_SLOT = SolveResult.__dict__["sigma_min"]
+
+
+def _get_sigma(self):
+    v = _SIGMA_SLOT.__get__(self, SolveResult)
+    if type(v) is _LazySigma:
+        v = v.value()
+        _SIGMA_SLOT.__set__(self, v)
+    return v
+
+
+SolveResult.sigma_min = property(_get_sigma, _SIGMA_SLOT.__set__,
+                                 doc="σ_min of (weighted) J (computed lazily by DLS).")
+
+
+def _make_result(qd, J, xi, damping, sigma, method, policy, scale, bound, active, fallback, info):
+    achieved = J @ qd
+    return SolveResult(qd, achieved, xi - achieved, damping, sigma, method, policy, scale, bound,
+                       active, fallback, info)
+
+
+# --------------------------------------------------------------------------- helpers
+def _check_problem(J, xi):
+    if type(J) is not np.ndarray or J.dtype != _F64:
+        try:
+            J = np.asarray(J, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"J must be a numeric (m, n) matrix, got {J!r}", argument="J",
+                             value=J) from None
+    if type(xi) is not np.ndarray or xi.dtype != _F64:
+        try:
+            xi = np.asarray(xi, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"xi must be a numeric twist, got {xi!r}", argument="xi",
+                             value=xi) from None
+    if J.ndim != 2:
+        raise InputError(f"J must be a 2-D (m, n) matrix, got shape {J.shape}", argument="J", value=J)
+    if xi.shape != (J.shape[0],):
+        raise InputError(f"xi must have shape ({J.shape[0]},) to match J {J.shape}, got {xi.shape}",
+                         argument="xi", value=xi)
+    # finiteness through Python float sums: cheaper than np.isfinite and never warns
+    s = sum(J.ravel().tolist()) + sum(xi.tolist())
+    if s - s != 0.0:
+        _check_finite(J, xi)
+    return J, xi
+
+
+def _check_finite(J, xi):
+    if not np.all(np.isfinite(J)):
+        raise InputError("J must be finite (got NaN or inf)", argument="J", value=J)
+    if not np.all(np.isfinite(xi)):
+        raise InputError("xi must be finite (got NaN or inf)", argument="xi", value=xi)
+
+
+def _positive(name, value, *, allow_zero=False):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a number, got {value!r}", argument=name, value=value) from None
+    ok = (v >= 0 if allow_zero else v > 0) and math.isfinite(v)
+    if not ok:
+        kind = "non-negative" if allow_zero else "positive"
+        raise InputError(f"{name} must be a finite {kind} number, got {value!r}", argument=name,
+                         value=value)
+    return v
+
+
+def _weights(task_weights, joint_weights):
+    """Normalise the weight options: (rows, sqrt task weights or None, 1/sqrt joint weights)."""
+    rows = sw = isw = None
+    if task_weights is not None:
+        if isinstance(task_weights, str):
+            table = {"position": POSITION_ONLY, "orientation": ORIENTATION_ONLY,
+                     "full": (1.0,) * 6}
+            if task_weights not in table:
+                raise InputError(f"task_weights must be 'position', 'orientation', 'full' or a "
+                                 f"vector of non-negative weights, got {task_weights!r}",
+                                 argument="task_weights", value=task_weights)
+            task_weights = table[task_weights]
+        w = np.asarray(task_weights, dtype=float)
+        if w.ndim != 1 or not np.all(np.isfinite(w)) or np.any(w < 0) or not np.any(w > 0):
+            raise InputError("task_weights must be a vector of finite non-negative weights, one per "
+                             f"task row, not all zero; got {task_weights!r}",
+                             argument="task_weights", value=task_weights)
+        rows = np.flatnonzero(w > 0)
+        sw = np.sqrt(w[rows])
+        rows = (rows, w.shape[0])
+    if joint_weights is not None:
+        w = np.asarray(joint_weights, dtype=float)
+        if w.ndim != 1 or not np.all(np.isfinite(w)) or np.any(w <= 0):
+            raise InputError("joint_weights must be a vector of finite positive weights, one per "
+                             f"joint; got {joint_weights!r}", argument="joint_weights",
+                             value=joint_weights)
+        isw = 1.0 / np.sqrt(w)
+    return rows, sw, isw
+
+
+# --------------------------------------------------------------------------- base class
+class Solver:
+    """Base class: validation, weights, the velocity-limit policy and the result.
+
+    Subclasses implement ``_raw(J, xi) -> (qd, damping, sigma_min, info)`` on the
+    weighted problem (rows of zero task weight removed, columns scaled by W_q^{-1/2}).
+
+    Args:
+        velocity_policy: ``"scale"`` (uniform scaling, keeps the direction), ``"clip"``
+            (per joint) or ``None`` (ignore the velocity limits).
+        task_weights: (m,) non-negative weights of the task rows, or ``"position"`` /
+            ``"orientation"``; zero-weight rows are dropped (partial twists).
+        joint_weights: (n,) positive weights W_q of the joint-velocity norm (a heavier
+            joint moves less).
+    """
+
+    method = "base"
+
+    def __init__(self, *, velocity_policy: str | None = "scale", task_weights=None,
+                 joint_weights=None) -> None:
+        if velocity_policy not in VELOCITY_POLICIES:
+            raise InputError(f"velocity_policy must be one of {VELOCITY_POLICIES}, "
+                             f"got {velocity_policy!r}", argument="velocity_policy",
+                             value=velocity_policy)
+        self.velocity_policy = velocity_policy
+        self.task_weights = task_weights
+        self.joint_weights = joint_weights
+        self._rows, self._sw, self._isw = _weights(task_weights, joint_weights)
+        self._weighted = self._rows is not None or self._isw is not None
+        self._lim_obj = None
+        self._lim_vmax = None
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(velocity_policy={self.velocity_policy!r})"
+
+    def _raw(self, J, xi):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _apply_weights(self, J, xi):
+        if self._rows is not None:
+            rows, m = self._rows
+            if J.shape[0] != m:
+                raise InputError(f"task_weights has {m} entries but J has {J.shape[0]} rows",
+                                 argument="task_weights", value=self.task_weights)
+            J = J[rows] * self._sw[:, None]
+            xi = xi[rows] * self._sw
+        if self._isw is not None:
+            if J.shape[1] != self._isw.shape[0]:
+                raise InputError(f"joint_weights has {self._isw.shape[0]} entries but J has "
+                                 f"{J.shape[1]} columns", argument="joint_weights",
+                                 value=self.joint_weights)
+            J = J * self._isw
+        return J, xi
+
+    def _vmax(self, limits, n):
+        if limits is self._lim_obj:
+            return self._lim_vmax
+        vmax = Limits.of(limits, n).vmax
+        self._lim_obj, self._lim_vmax = limits, vmax
+        return vmax
+
+    def _policy(self, qd, limits, n):
+        """Apply the velocity-limit policy: (qd, policy, scale, bound, active)."""
+        vmax = self._vmax(limits, n)
+        ratio = np.abs(qd) / vmax
+        worst = float(ratio.max()) if n else 0.0
+        if not worst > 1.0:
+            return qd, "none", 1.0, np.zeros(n, dtype=bool), ()
+        if self.velocity_policy == "scale":
+            scale = 1.0 / worst
+            return qd * scale, "scaled", scale, ratio >= worst * (1 - 1e-12), ("velocity",)
+        return np.clip(qd, -vmax, vmax), "clipped", 1.0, ratio > 1.0, ("velocity",)
+
+    def _solve_weighted(self, J, xi):
+        """Solve the weighted problem and map q̇ back to joint space."""
+        if not self._weighted:
+            return self._raw(J, xi)
+        Jw, xiw = self._apply_weights(J, xi)
+        qd, damping, sigma, info = self._raw(Jw, xiw)
+        if self._isw is not None:
+            qd = qd * self._isw
+        return qd, damping, sigma, info
+
+    def solve(self, J, xi, *, limits=None, q=None, qd_prev=None, dt=None) -> SolveResult:
+        """Joint velocities q̇ (n,) for the twist ``xi`` (m,) with the Jacobian ``J`` (m, n).
+
+        Args:
+            J: Jacobian (m, n), rows [linear; angular] in SI units.
+            xi: desired twist (m,) [m/s; rad/s].
+            limits: joint limits (a Chain or :class:`Limits`); non-QP solvers use
+                ``vmax`` through the velocity-limit policy.
+            q, qd_prev, dt: current joint positions, previous joint velocities and the
+                step [s]; used by the QP and by :class:`NullSpace` (``q``).
+        """
+        J, xi = _check_problem(J, xi)
+        n = J.shape[1]
+        try:
+            if self._weighted:
+                qd, damping, sigma, info = self._solve_weighted(J, xi)
+            else:
+                qd, damping, sigma, info = self._raw(J, xi)
+        except RatectlError:
+            raise
+        except (ValueError, np.linalg.LinAlgError) as exc:  # LAPACK failures
+            raise SolverError(f"{self.method}: linear algebra failed: {exc}") from exc
+        achieved = _dot(J, qd)
+        err = xi - achieved
+        if limits is None or self.velocity_policy is None:
+            return SolveResult(qd, achieved, err, damping, sigma, self.method, "none", 1.0,
+                               _zeros(n, dtype=bool), (), False, info)
+        qd, policy, scale, bound, active = self._policy(qd, limits, n)
+        if policy == "none":
+            return SolveResult(qd, achieved, err, damping, sigma, self.method, policy, scale, bound,
+                               active, False, info)
+        return _make_result(qd, J, xi, damping, sigma, self.method, policy, scale, bound, active,
+                            False, info)

@@ -1,0 +1,57 @@
+"""The QP solver and its parts: bounds, exact active-set steps, warm OSQP.
+
+Inverse velocity as a quadratic program, with joint position, velocity and
+acceleration limits.
+
+The QP, over q̇ (n,):
+
+    minimise    ½‖W_x^{1/2}(J q̇ − ξ)‖² + ½λ² q̇ᵀ W_q q̇ + ½μ‖q̇ − z(q)‖²
+    subject to  l ≤ q̇ ≤ u          (velocity, position and acceleration bounds)
+                G q̇ ≤ h            (optional extra rows, e.g. mink's collision limits)
+
+i.e. P = JᵀW_xJ + λ²W_q + μI and c = −JᵀW_xξ − μz. The box [l, u] is the
+intersection, per joint, of
+
+* the velocity limit: −vmax ≤ q̇ ≤ vmax;
+* the position limit turned into a velocity bound for the step dt with a margin m and
+  a braking term that respects the acceleration limit a = amax: with the distance
+  d = upper − m − q (resp. q − lower − m), q̇ ≤ v_stop(d) (resp. q̇ ≥ −v_stop(d)), where
+  v_stop(d) is the largest speed from which braking by a·dt per step still stops within
+  d. Braking from v = (k + f)·a·dt (k integer, 0 ≤ f < 1) covers
+  a·dt²·((k + 1)f + k(k + 1)/2), so with u = d/(a·dt²), k = ⌊(√(8u + 1) − 1)/2⌋,
+  f = min((u − k(k + 1)/2)/(k + 1), 1): v_stop = (k + f)·a·dt. This is the discrete
+  form of √(2a·d); for small d it is d/dt (stop exactly at the limit this step), and it
+  is consistent with the acceleration bound (from v_stop(d) the next step's bound is
+  exactly v_stop − a·dt), so a joint braking into a limit never makes the box empty.
+  Beyond a limit (d < 0) the bound is d/dt (move back). Without ``dt`` the continuous
+  √(2a·d) is used;
+* the acceleration limit given the previous command: |q̇ − q̇_prev| ≤ amax·dt.
+
+When the bounds conflict (e.g. moving too fast toward a limit to stop within the
+acceleration limit), priority is velocity > position > acceleration: the box becomes the
+point of the higher-priority box nearest to the lower-priority one, and the result says
+so in ``info["conflicts"]``.
+
+Before any backend runs, the unconstrained minimiser P⁻¹b (the DLS solution) is tried:
+when it lies inside the box (and satisfies G q̇ ≤ h) it is the optimum
+(``info["status"] == "unconstrained"``). For a box-only problem on the default backend a
+few primal active-set steps follow (:func:`_box_active_set`); their answer is accepted
+only with a KKT certificate, so it is the exact optimum (``"active-set"``); when they do
+not settle within four steps OSQP answers.
+
+The default backend is OSQP kept **warm**: the problem is set up once with a fixed
+sparsity pattern (P upper-triangular dense, A = [I; G]) and every later call only
+updates P's values, q, l, u (and A's values when G is given), then solves, warm-started
+from the previous solution. Re-setup happens only when the structure changes (n, or
+the number of extra rows). Tolerances are explicit (1e-7 with solution polishing, so the
+active set is solved exactly), and the final q̇ is clipped into [l, u] when it is outside
+by less than ``tolerance``: limits hold to 1e-6. Other backends (``"daqp"``,
+``"quadprog"``, ``"proxqp"``, …) are called through :func:`qpsolvers.solve_qp`.
+"""
+
+from __future__ import annotations
+
+from .bounds import VelocityBounds, joint_velocity_bounds
+from .qp import QP
+
+__all__ = ["QP", "joint_velocity_bounds", "VelocityBounds"]

@@ -1,0 +1,249 @@
+"""The per-joint velocity box of one control step from velocity, position and acceleration
+limits (:func:`joint_velocity_bounds`), with the source of every active bound.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import InputError
+from ...model.limits import Limits, braking_speed_discrete
+from ..base import (
+    _positive,
+)
+
+__all__ = ['joint_velocity_bounds', 'VelocityBounds']
+
+
+_BIG = 1e15  # stands for an absent (infinite) limit in the bound arithmetic
+
+
+_CTOL = 1e-9  # conflicts smaller than this are rounding (resolved, not reported)
+
+
+_NONE, _VEL, _POS, _ACC = 0, 1, 2, 3
+
+
+_KIND = {_VEL: "velocity", _POS: "position", _ACC: "acceleration"}
+
+
+class VelocityBounds:
+    """Per-joint velocity box for one step (see :func:`joint_velocity_bounds`).
+
+    Attributes:
+        lower, upper: (n,) bounds on q̇ [rad/s or m/s].
+        source_lower, source_upper: (n,) int codes of the limit that sets each bound
+            (0 none, 1 velocity, 2 position, 3 acceleration).
+        conflicts: tuple of (joint, kinds) where bounds conflicted and were resolved by
+            priority (velocity > position > acceleration).
+    """
+
+    __slots__ = ("lower", "upper", "source_lower", "source_upper", "conflicts")
+
+    def __init__(self, lower, upper, source_lower, source_upper, conflicts):
+        self.lower = lower
+        self.upper = upper
+        self.source_lower = source_lower
+        self.source_upper = source_upper
+        self.conflicts = conflicts
+
+
+class _BoundCache:
+    """Precomputed arrays for the bound arithmetic of one (limits, dt, margin).
+
+    Position bounds are computed on stacked (2n,) arrays, upper side first, lower side
+    mirrored: D = [upper − m − q; q − lower − m], bound = min(stop speed(D), vmax); the
+    lower bound is minus the second half. An absent position limit is a large finite
+    number (no inf − inf); an absent acceleration limit is a huge finite one (the stop
+    speed becomes D/dt).
+    """
+
+    __slots__ = ("src", "dt", "n", "limits", "vmax", "nvmax", "hi_lim", "lo_lim", "amax_dt",
+                 "has_pos", "has_acc", "inv_dt", "lim2", "sgn2", "idx2", "vmax2", "adt", "inv_adt2",
+                 "adt2", "inv_adt22", "two_a", "dstar2", "vmax_l", "amax_dt_l")
+
+    def __init__(self, src, limits: Limits, dt, margin):
+        self.src, self.dt = src, dt
+        self.limits = limits
+        n = self.n = limits.vmax.shape[0]
+        self.vmax = np.minimum(limits.vmax, _BIG)
+        self.nvmax = -self.vmax
+        self.vmax_l = self.vmax.tolist()
+        self.hi_lim = np.where(np.isfinite(limits.upper), limits.upper - margin, _BIG)
+        self.lo_lim = np.where(np.isfinite(limits.lower), limits.lower + margin, -_BIG)
+        afin = np.isfinite(limits.amax)
+        a = np.where(afin, limits.amax, 1e200)
+        self.two_a = 2.0 * a
+        self.has_pos = bool(np.any(np.isfinite(limits.upper)) or np.any(np.isfinite(limits.lower)))
+        self.has_acc = bool(np.any(afin))
+        self.lim2 = np.concatenate([self.hi_lim, -self.lo_lim])
+        self.sgn2 = np.concatenate([np.ones(n), -np.ones(n)])
+        self.idx2 = np.concatenate([np.arange(n), np.arange(n)])
+        self.vmax2 = np.concatenate([self.vmax, self.vmax])
+        if dt is None:
+            self.amax_dt = self.inv_dt = self.adt = self.inv_adt2 = self.adt2 = self.inv_adt22 = None
+            self.amax_dt_l = None
+            self.dstar2 = None
+        else:
+            self.amax_dt = np.where(afin, a * dt, _BIG)
+            self.amax_dt_l = self.amax_dt.tolist()
+            self.inv_dt = 1.0 / dt
+            self.adt = a * dt
+            self.inv_adt2 = 1.0 / (a * dt * dt)
+            self.adt2 = np.concatenate([self.adt, self.adt])
+            self.inv_adt22 = np.concatenate([self.inv_adt2, self.inv_adt2])
+            # the distance from which a joint at full speed can still stop: farther than
+            # this from both limits, the velocity limit is the bound (no stop speed needed)
+            r = self.vmax / self.adt
+            k = np.floor(r)
+            f = r - k
+            dstar = self.adt * dt * ((k + 1.0) * f + 0.5 * k * (k + 1.0))
+            dstar = np.where(limits.vmax < _BIG, dstar * (1.0 + 1e-9) + 1e-12, np.inf)
+            self.dstar2 = np.concatenate([dstar, dstar])
+        for arr in (self.vmax, self.nvmax):  # returned as the box when no other bound acts
+            arr.setflags(write=False)
+
+
+def _box(bc: _BoundCache, q, qd_prev):
+    """Fast path of :func:`_bounds`: (lo, hi, conflicts) without the sources."""
+    n = bc.n
+    if q is not None and bc.has_pos and bc.inv_dt is not None:
+        D = bc.lim2 - q[bc.idx2] * bc.sgn2
+        if (D < bc.dstar2).any():  # some joint is near a limit
+            U = np.minimum(braking_speed_discrete(D, bc.adt2, bc.inv_adt22, bc.inv_dt), bc.vmax2)
+            hi = U[:n]
+            lo = -U[n:]
+            if float((hi - lo).min()) < 0.0:
+                return _careful(bc, q, qd_prev)  # conflicting bounds: the careful path
+        else:
+            lo, hi = bc.nvmax, bc.vmax
+    elif q is not None and bc.has_pos:
+        return _careful(bc, q, qd_prev)
+    else:
+        lo, hi = bc.nvmax, bc.vmax
+    if qd_prev is not None and bc.amax_dt is not None and bc.has_acc:
+        nlo = np.maximum(lo, qd_prev - bc.amax_dt)
+        nhi = np.minimum(hi, qd_prev + bc.amax_dt)
+        if float((nhi - nlo).min()) < 0.0:
+            return _careful(bc, q, qd_prev)
+        lo, hi = nlo, nhi
+    return lo, hi, ()
+
+
+def _sources(bc: _BoundCache, qd_prev, lo, hi, held) -> tuple[str, ...]:
+    """Kinds of limit that set the active bounds; ``held[i]`` is +1 / −1 / 0 for a joint
+    at its upper / lower bound / free. The box values are exact copies of the velocity
+    limit, the acceleration bound or a position bound, so equality identifies them
+    (velocity first, then acceleration, else position)."""
+    kinds = set()
+    vmax = bc.vmax_l
+    acc = qd_prev is not None and bc.amax_dt is not None and bc.has_acc
+    lol = hil = qdl = None
+    for i, st in enumerate(held):
+        if not st:
+            continue
+        if lol is None:
+            lol, hil = lo.tolist(), hi.tolist()
+            qdl = qd_prev.tolist() if acc else None
+        v = hil[i] if st > 0 else lol[i]
+        if v == st * vmax[i]:
+            kinds.add(_VEL)
+        elif acc and v == qdl[i] + st * bc.amax_dt_l[i]:
+            kinds.add(_ACC)
+        else:
+            kinds.add(_POS)
+    return tuple(_KIND[k] for k in (_VEL, _POS, _ACC) if k in kinds)
+
+
+def _careful(bc, q, qd_prev):
+    lo, hi, _, _, conflicts = _bounds(bc, q, qd_prev, False)
+    return lo, hi, conflicts
+
+
+def _bounds(cache: _BoundCache, q, qd_prev, want_sources: bool):
+    """The velocity box (lo, hi), its sources and the conflicts; see the module docstring."""
+    lo = cache.nvmax
+    hi = cache.vmax
+    conflicts = []
+    slo = shi = None
+    if want_sources:
+        slo = np.where(cache.vmax < _BIG, _VEL, _NONE)
+        shi = slo.copy()
+    if q is not None and cache.has_pos:
+        dup = cache.hi_lim - q
+        dlo = q - cache.lo_lim
+        if cache.inv_dt is not None:
+            pu = braking_speed_discrete(dup, cache.adt, cache.inv_adt2, cache.inv_dt)
+            pl = -braking_speed_discrete(dlo, cache.adt, cache.inv_adt2, cache.inv_dt)
+        else:  # no step: the continuous braking bound √(2a·d), and no motion beyond a limit
+            pu = np.sqrt(cache.two_a * np.maximum(dup, 0.0))
+            pl = -np.sqrt(cache.two_a * np.maximum(dlo, 0.0))
+        bad = pl > pu
+        if bad.any():
+            mid = 0.5 * (pl + pu)
+            pl = np.where(bad, mid, pl)
+            pu = np.where(bad, mid, pu)
+            conflicts += [(int(i), ("position",)) for i in np.flatnonzero(bad & (pl - pu > _CTOL))]
+        nlo = np.maximum(lo, pl)
+        nhi = np.minimum(hi, pu)
+        if want_sources:
+            slo = np.where(pl > lo, _POS, slo)
+            shi = np.where(pu < hi, _POS, shi)
+        bad = nlo > nhi
+        big = bad & (nlo - nhi > _CTOL)
+        if bad.any():  # the position box lies outside the velocity box: keep the nearest velocity
+            pt = np.where(pl > hi, hi, lo)
+            nlo = np.where(bad, pt, nlo)
+            nhi = np.where(bad, pt, nhi)
+            if want_sources:
+                slo = np.where(bad, _VEL, slo)
+                shi = np.where(bad, _VEL, shi)
+            conflicts += [(int(i), ("velocity", "position")) for i in np.flatnonzero(big)]
+        lo, hi = nlo, nhi
+    if qd_prev is not None and cache.amax_dt is not None and cache.has_acc:
+        al = qd_prev - cache.amax_dt
+        au = qd_prev + cache.amax_dt
+        nlo = np.maximum(lo, al)
+        nhi = np.minimum(hi, au)
+        bad = nlo > nhi
+        big = bad & (nlo - nhi > _CTOL)
+        if want_sources:
+            pt_src = np.where(al > hi, shi, slo)  # the bound of the kept box at the nearest point
+            slo = np.where(bad, pt_src, np.where(al > lo, _ACC, slo))
+            shi = np.where(bad, pt_src, np.where(au < hi, _ACC, shi))
+        if bad.any():  # cannot reach the box within the acceleration limit: nearest point
+            pt = np.where(al > hi, hi, lo)
+            nlo = np.where(bad, pt, nlo)
+            nhi = np.where(bad, pt, nhi)
+            conflicts += [(int(i), ("acceleration",)) for i in np.flatnonzero(big)]
+        lo, hi = nlo, nhi
+    return lo, hi, slo, shi, tuple(conflicts)
+
+
+def joint_velocity_bounds(limits, *, q=None, qd_prev=None, dt=None, margin: float = 0.0,
+                          n: int | None = None) -> VelocityBounds:
+    """The per-joint box on q̇ for one step from velocity, position and acceleration
+    limits (see :mod:`ratectl.qp`). ``limits`` is a Chain or :class:`Limits`; ``q``
+    (n,) enables the position bounds, ``qd_prev`` (n,) with ``dt`` [s] the acceleration
+    bounds; ``margin`` [rad or m] keeps that far from the position limits."""
+    if n is None:
+        n = np.asarray(limits.vmax).shape[0]
+    lim = Limits.of(limits, n)
+    if dt is not None:
+        dt = _positive("dt", dt)
+    margin = _positive("margin", margin, allow_zero=True)
+    q = _vec("q", q, n)
+    qd_prev = _vec("qd_prev", qd_prev, n)
+    cache = _BoundCache(limits, lim, dt, margin)
+    lo, hi, slo, shi, conflicts = _bounds(cache, q, qd_prev, True)
+    return VelocityBounds(np.array(lo, dtype=float), np.array(hi, dtype=float), slo, shi, conflicts)
+
+
+def _vec(name, v, n):
+    if v is None:
+        return None
+    a = np.asarray(v, dtype=float)
+    if a.shape != (n,) or not np.all(np.isfinite(a)):
+        raise InputError(f"{name} must be a finite ({n},) vector, got shape {a.shape}", argument=name,
+                         value=v)
+    return a

@@ -1,0 +1,343 @@
+"""The limit-aware QP solver (:class:`QP`): damped least squares with joint position,
+velocity and acceleration bounds and extra inequality rows.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.linalg import lapack as _lapack
+
+from ...errors import InputError, SolverError
+from ...model.limits import Limits
+from ..base import (
+    Solver,
+    SolveResult,
+    _check_finite,
+    _check_problem,
+    _LazySigma,
+    _positive,
+)
+from ..damped import DLS
+from ..nullspace import _objective
+from .active_set import _box_active_set, _polish
+from .bounds import _BIG, _BoundCache, _box, _sources, _vec
+from .warm_osqp import _OSQP_DEFAULTS, _WarmOSQP
+
+__all__ = ['QP']
+
+
+_dposv = _lapack.dposv
+
+
+_dot = np.dot
+
+
+_zeros = np.zeros
+
+
+class QP(Solver):
+    """Inverse velocity as a QP with joint limits (see :mod:`ratectl.qp` for the
+    formulation and the bounds).
+
+    Args:
+        damping: λ, the joint-velocity regularisation (the DLS damping): with no active
+            limit the QP returns exactly the DLS solution Jᵀ(JJᵀ + λ²I)⁻¹ξ.
+        backend: ``"osqp"`` (default, kept warm across calls) or any solver name of
+            :func:`qpsolvers.solve_qp` (``"daqp"``, ``"quadprog"``, ``"proxqp"``, …).
+        margin: distance kept from the position limits [rad or m].
+        task_weights, joint_weights: as for the other solvers (W_x, W_q).
+        objective: optional secondary objective (``"centring"``, ``"manipulability"``
+            with ``chain``, or a callable q -> desired q̇), added as ½μ‖q̇ − k·z(q)‖²;
+            needs ``q=`` in :meth:`solve`.
+        objective_weight: μ (small: the term trades task accuracy for the objective).
+        objective_gain: k [1/s].
+        chain: for the string objectives.
+        fallback: on a failed solve return the DLS solution scaled into the velocity
+            box (``result.fallback`` = True, ``info["error"]``) instead of raising
+            :class:`SolverError`.
+        tolerance: bound violation up to which q̇ is clipped back into the box (larger
+            violations raise), and the distance at which a bound counts as active.
+        settings: extra OSQP settings (override the defaults) or backend keywords.
+        shortcut: first try the unconstrained minimiser (one Cholesky solve); when it
+            satisfies every bound it is the exact optimum and the backend is not called
+            (``info["status"] == "unconstrained"``). ``False`` always calls the backend.
+    """
+
+    method = "qp"
+    #: the solution already respects the velocity, position and acceleration bounds (and
+    #: any extra rows): the controller reports them instead of limiting q̇ again
+    enforces_limits = True
+
+    def __init__(self, *, damping: float = 0.05, backend: str = "osqp", margin: float = 0.0,
+                 task_weights=None, joint_weights=None, objective=None,
+                 objective_weight: float = 1e-3, objective_gain: float = 1.0, chain=None,
+                 fallback: bool = False, tolerance: float = 1e-6, settings: dict | None = None,
+                 shortcut: bool = True) -> None:
+        super().__init__(velocity_policy="scale", task_weights=task_weights,
+                         joint_weights=joint_weights)
+        self.damping = _positive("damping", damping, allow_zero=True)
+        self.margin = _positive("margin", margin, allow_zero=True)
+        self.tolerance = _positive("tolerance", tolerance)
+        self.objective_weight = _positive("objective_weight", objective_weight, allow_zero=True)
+        self.objective_gain = _positive("objective_gain", objective_gain, allow_zero=True)
+        self.objective = None if objective is None else _objective(objective, chain)
+        self.fallback = bool(fallback)
+        self.shortcut = bool(shortcut)
+        if not isinstance(backend, str):
+            raise InputError(f"backend must be a solver name, got {backend!r}", argument="backend",
+                             value=backend)
+        if backend != "osqp":
+            import qpsolvers
+
+            if backend not in qpsolvers.available_solvers:
+                raise InputError(f"QP backend {backend!r} is not installed; available: "
+                                 f"{sorted(qpsolvers.available_solvers)}", argument="backend",
+                                 value=backend)
+        self.backend = backend
+        self.settings = dict(settings or {})
+        self._osqp_settings = {**_OSQP_DEFAULTS, **self.settings} if backend == "osqp" else None
+        self._warm: _WarmOSQP | None = None
+        self._bcache: _BoundCache | None = None
+        self._lam2 = self.damping**2
+        self._wq = None if self._isw is None else 1.0 / self._isw**2
+        self._reg: dict[int, np.ndarray] = {}
+        self._pd = self._lam2 > 0 or (self.objective is not None and self.objective_weight > 0)
+        self._dls = DLS(damping=max(self.damping, 1e-6), velocity_policy=None,
+                        task_weights=task_weights, joint_weights=joint_weights)
+
+    def __repr__(self) -> str:
+        return f"QP(damping={self.damping!r}, backend={self.backend!r}, margin={self.margin!r})"
+
+    def reset(self) -> None:
+        """Forget the warm OSQP instance (the next call sets it up again)."""
+        self._warm = None
+
+    def solve(self, J, xi, *, limits=None, q=None, qd_prev=None, dt=None,
+              extra_inequalities=None) -> SolveResult:
+        """q̇ for the twist ``xi`` with the Jacobian ``J`` under the joint limits.
+
+        Args:
+            J, xi: Jacobian (m, n) and desired twist (m,).
+            limits: a Chain or :class:`Limits` (None: no bounds, the QP is the DLS).
+            q: joint positions (n,): enables the position bounds (and the objective).
+            qd_prev: previous joint velocities (n,): with ``dt``, the acceleration bounds.
+            dt: the control step [s].
+            extra_inequalities: ``(G, h)`` with G (k, n) and h (k,): extra rows G q̇ ≤ h
+                (e.g. collision avoidance); a change of k re-creates the OSQP instance.
+
+        Returns:
+            :class:`~ratectl.solvers.SolveResult` with ``limits_active`` naming the kinds of
+            bound that hold q̇ and ``info`` = status, iterations, backend, the box
+            (``lower``, ``upper``) and any ``conflicts`` resolved by priority.
+        """
+        J, xi = _check_problem(J, xi)
+        m, n = J.shape
+        if dt is not None and not (dt > 0 and math.isfinite(dt)):
+            raise InputError(f"dt must be a positive step [s], got {dt!r}", argument="dt", value=dt)
+        if q is not None and (type(q) is not np.ndarray or q.shape != (n,)):
+            q = _vec("q", q, n)
+        if qd_prev is not None and (type(qd_prev) is not np.ndarray or qd_prev.shape != (n,)):
+            qd_prev = _vec("qd_prev", qd_prev, n)
+        # objective ½‖W(Jq̇ − ξ)‖² + ½λ²q̇ᵀW_q q̇ (+ ½μ‖q̇ − z‖²)  →  ½q̇ᵀPq̇ − bᵀq̇
+        if self._rows is not None:
+            rows, mw = self._rows
+            if m != mw:
+                raise InputError(f"task_weights has {mw} entries but J has {m} rows",
+                                 argument="task_weights", value=self.task_weights)
+            Jw = J[rows] * self._sw[:, None]
+            xiw = xi[rows] * self._sw
+        else:
+            Jw, xiw = J, xi
+        reg = self._reg.get(n)
+        if reg is None:
+            if self._wq is not None and self._wq.shape[0] != n:
+                raise InputError(f"joint_weights has {self._wq.shape[0]} entries but J has {n} "
+                                 "columns", argument="joint_weights", value=self.joint_weights)
+            d = np.full(n, self._lam2) if self._wq is None else self._lam2 * self._wq
+            reg = self._reg[n] = np.diag(d)
+        P = _dot(Jw.T, Jw) + reg
+        b = _dot(xiw, Jw)
+        if self.objective is not None:
+            if q is None:
+                raise InputError("QP with an objective needs q= (the joint positions)", argument="q",
+                                 value=None)
+            z = np.asarray(self.objective(q), dtype=float) * self.objective_gain
+            if z.shape != (n,) or not np.all(np.isfinite(z)):
+                raise InputError(f"the objective must return a finite ({n},) vector, got {z!r}",
+                                 argument="objective", value=z)
+            P = P + self.objective_weight * np.eye(n)
+            b = b + self.objective_weight * z
+        # the velocity box
+        conflicts = ()
+        if limits is None:
+            lo = hi = None
+        else:
+            bc = self._bcache
+            if bc is None or bc.src is not limits or bc.dt != dt or bc.n != n:
+                bc = self._bcache = _BoundCache(limits, Limits.of(limits, n), dt, self.margin)
+            lo, hi, conflicts = _box(bc, q, qd_prev)
+        G = h = None
+        if extra_inequalities is not None:
+            G, h = _extra(extra_inequalities, n)
+        # shortcut: the unconstrained minimiser P⁻¹b (= the DLS solution) if it is feasible
+        qd = held = None
+        slack = math.inf
+        if self.shortcut and self._pd:
+            _, x0, info0 = _dposv(P, b)
+            if info0 == 0:
+                if lo is not None:
+                    lists = (x0.tolist(), lo.tolist(), hi.tolist())
+                    slack = min(min(u - x, x - l) for x, l, u in zip(*lists, strict=True))
+                if slack >= 0.0 and (G is None or bool(np.all(_dot(G, x0) <= h))):
+                    qd, status, niter = x0, "unconstrained", 0
+                elif G is None and lo is not None and self.backend == "osqp":
+                    # a box-only problem: a few primal active-set steps from x0, accepted
+                    # only with a KKT certificate (then it is the exact optimum)
+                    qd, held, niter = _box_active_set(P, b, lo, hi, x0, lists=lists)
+                    if qd is not None:
+                        status = "active-set"
+        if qd is None:
+            lo_ = np.full(n, -_BIG) if lo is None else lo
+            hi_ = np.full(n, _BIG) if hi is None else hi
+            try:
+                qd, status, niter, exact = self._backend_solve(P, -b, G, h, lo_, hi_)
+            except SolverError as exc:
+                if not self.fallback:
+                    raise
+                return self._fallback_result(J, xi, lo_, hi_, exc)
+            if G is None and lo is not None and not exact:
+                refined = _polish(P, b, lo, hi, qd)
+                if refined is not None:
+                    qd = refined
+            if lo is not None:
+                # clip into the box (violations up to the tolerance are numerical)
+                slack = min(float((hi - qd).min()), float((qd - lo).min()))
+                if slack < 0.0:
+                    if slack < -self.tolerance:
+                        exc = SolverError(
+                            f"QP ({self.backend}) solution violates its bounds by {-slack:.2e} > "
+                            f"tolerance {self.tolerance:.1e}", status=status,
+                            problem=self._problem(P, -b, G, h, lo, hi))
+                        if not self.fallback:
+                            raise exc
+                        return self._fallback_result(J, xi, lo, hi, exc)
+                    qd = np.minimum(np.maximum(qd, lo), hi)
+        achieved = _dot(J, qd)
+        err = xi - achieved
+        e = sum(err.tolist())
+        if e - e != 0.0:
+            _check_finite(J, xi)
+            raise SolverError("QP: the solution is not finite", status="non-finite",
+                              problem=self._problem(P, -b, G, h, lo, hi))
+        # which bounds hold q̇
+        active = ()
+        if held is not None:  # the active-set step knows which bounds hold
+            bound = np.array(held, dtype=bool)
+            active = _sources(bc, qd_prev, lo, hi, held)
+        elif lo is not None and slack < self.tolerance:
+            tol = self.tolerance
+            at_hi = qd >= hi - tol  # an absent bound is ±1e15: never reached
+            at_lo = qd <= lo + tol
+            bound = at_hi | at_lo
+            active = _sources(bc, qd_prev, lo, hi, (at_hi.astype(int) - (at_lo & ~at_hi)).tolist())
+        else:
+            bound = _zeros(n, dtype=bool)
+        info = {"status": status, "iterations": niter, "backend": self.backend, "lower": lo,
+                "upper": hi}
+        if conflicts:
+            info["conflicts"] = conflicts
+        if G is not None:
+            info["extra_active"] = _dot(G, qd) >= h - self.tolerance
+        return SolveResult(qd, achieved, err, self.damping, _LazySigma(None, Jw), self.method,
+                           "none", 1.0, bound, active, False, info)
+
+    # ------------------------------------------------------------------ backends
+    @staticmethod
+    def _problem(P, c, G, h, lo, hi):
+        return {"P": P, "q": c, "G": G, "h": h, "lb": lo, "ub": hi}
+
+    def _backend_solve(self, P, c, G, h, lo, hi):
+        n = P.shape[0]
+        k = 0 if G is None else G.shape[0]
+        if self.backend == "osqp":
+            w = self._warm
+            try:
+                if w is None or w.n != n or w.k != k:
+                    w = self._warm = _WarmOSQP(n, k, P, c, G, h, lo, hi, self._osqp_settings)
+                x, sv, status, niter, polish = w.solve(P, c, G, h, lo, hi)
+            except ValueError as exc:
+                self._warm = None
+                raise SolverError(f"OSQP rejected the problem: {exc}", status="error",
+                                  problem=self._problem(P, c, G, h, lo, hi)) from exc
+            if sv not in (1, 2) or not np.all(np.isfinite(x)):  # 1 solved, 2 solved inaccurate
+                self._warm = None
+                raise SolverError(f"OSQP failed: status {status!r}", status=status,
+                                  problem=self._problem(P, c, G, h, lo, hi))
+            return np.array(x), status, niter, polish == 1
+        import qpsolvers
+
+        kw = dict(self.settings)
+        if self.backend == "proxqp":  # its residuals are scaled: needs tighter numbers to match
+            kw.setdefault("eps_abs", 1e-11)
+            kw.setdefault("eps_rel", 0.0)
+            kw.setdefault("check_duality_gap", True)
+            kw.setdefault("max_iter", 10000)
+        elif self.backend in ("osqp", "scs", "clarabel", "ecos", "piqp"):
+            kw.setdefault("eps_abs", 1e-9)
+            kw.setdefault("eps_rel", 1e-9)
+        Gq = None if G is None else G
+        hq = None if h is None else h
+        lb = np.where(lo > -_BIG, lo, -np.inf)
+        ub = np.where(hi < _BIG, hi, np.inf)
+        try:
+            x = qpsolvers.solve_qp(P, c, Gq, hq, lb=lb, ub=ub, solver=self.backend, **kw)
+        except Exception as exc:  # backends raise their own error types
+            raise SolverError(f"QP backend {self.backend!r} failed: {exc}", status="error",
+                              problem=self._problem(P, c, G, h, lo, hi)) from exc
+        if x is None or not np.all(np.isfinite(x)):
+            raise SolverError(f"QP backend {self.backend!r} found no solution", status="failed",
+                              problem=self._problem(P, c, G, h, lo, hi))
+        # active-set backends are exact; the others get ratectl's active-set polish
+        return np.asarray(x, dtype=float), "solved", -1, self.backend in ("daqp", "quadprog")
+
+    def _fallback_result(self, J, xi, lo, hi, exc) -> SolveResult:
+        """The DLS solution scaled uniformly into the box (clipped where 0 is outside it)."""
+        r = self._dls.solve(J, xi)
+        qd = r.qd
+        n = qd.shape[0]
+        ratio = np.ones(n)
+        pos = qd > 0
+        neg = qd < 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio[pos] = np.where(hi[pos] > 0, hi[pos] / qd[pos], 0.0)
+            ratio[neg] = np.where(lo[neg] < 0, lo[neg] / qd[neg], 0.0)
+        scale = float(min(1.0, ratio.min())) if n else 1.0
+        qd = np.minimum(np.maximum(qd * scale, lo), hi)
+        achieved = np.dot(J, qd)
+        policy = "scaled" if scale < 1.0 else "none"
+        return SolveResult(qd, achieved, xi - achieved, self._dls.damping, r.sigma_min, self.method,
+                           policy, scale, (qd >= hi - self.tolerance) | (qd <= lo + self.tolerance),
+                           ("velocity",) if scale < 1.0 else (), True,
+                           {"error": str(exc), "status": getattr(exc, "status", None),
+                            "problem": getattr(exc, "problem", None)})
+
+
+
+
+def _extra(extra, n):
+    try:
+        G, h = extra
+    except (TypeError, ValueError):
+        raise InputError("extra_inequalities must be a pair (G, h) meaning G q̇ ≤ h",
+                         argument="extra_inequalities", value=extra) from None
+    G = np.atleast_2d(np.asarray(G, dtype=float))
+    h = np.atleast_1d(np.asarray(h, dtype=float))
+    if G.ndim != 2 or G.shape[1] != n or h.shape != (G.shape[0],):
+        raise InputError(f"extra_inequalities: G must be (k, {n}) and h (k,), got {G.shape} and "
+                         f"{h.shape}", argument="extra_inequalities", value=extra)
+    if not (np.all(np.isfinite(G)) and not np.any(np.isnan(h))):
+        raise InputError("extra_inequalities must be finite (h may be +inf)",
+                         argument="extra_inequalities", value=extra)
+    return G, h
