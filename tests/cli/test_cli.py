@@ -13,7 +13,7 @@ import ratectl as rc
 from ratectl.cli import demo
 from ratectl.cli import main as cli
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 COMMANDS = ("demo", "info", "jacobian", "singularity", "scan")
 
 

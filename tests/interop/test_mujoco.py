@@ -20,7 +20,7 @@ from ratectl.interop.mujoco import (  # noqa: E402
     to_mjcf,
 )
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 ARMS = ["ur5e", "panda", "puma560", "stanford", "iiwa7", "rpr", "planar2r"]
 
 

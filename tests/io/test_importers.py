@@ -10,7 +10,7 @@ from ratectl.io import axis_rotation
 
 mujoco = pytest.importorskip("mujoco")
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 
 # (file, tip, frame type in MuJoCo's compiled model, expected dof)
 MODELS = [
