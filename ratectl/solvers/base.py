@@ -5,7 +5,10 @@ the :class:`Solver` base class (weights, the velocity-limit policy, input checks
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 from scipy.linalg import lapack as _lapack
@@ -109,14 +112,26 @@ class SolveResult:
     bound: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     limits_active: tuple[str, ...] = ()
     fallback: bool = False
-    info: dict = field(default_factory=dict)
+    info: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
 
-    # A hand-written __init__ (the dataclass keeps it): it stores the slots through their
-    # descriptors, ~2x cheaper than the generated frozen __init__ (this is a hot path).
-    def __init__(self, qd, achieved, task_error, damping, sigma_min, method,
-                 velocity_policy="none", velocity_scale=1.0, bound=None, limits_active=(),
-                 fallback=False, info=None):
+    # A hand-written keyword-only __init__ (the dataclass keeps it): it stores the slots
+    # through their descriptors, ~2x cheaper than the generated frozen __init__ (a hot path).
+    # Arrays are made read-only (also those inside ``info``) and ``info`` is a read-only
+    # mapping, so nothing a caller does to a result can reach the solver's state.
+    def __init__(self, *, qd: np.ndarray, achieved: np.ndarray, task_error: np.ndarray,
+                 damping: float, sigma_min: float | _LazySigma, method: str,
+                 velocity_policy: str = "none", velocity_scale: float = 1.0,
+                 bound: np.ndarray | None = None, limits_active: tuple[str, ...] = (),
+                 fallback: bool = False, info: Mapping[str, Any] | None = None) -> None:
         s = _SETTERS
+        if bound is None:
+            bound = np.zeros(len(qd), dtype=bool)
+        for a in (qd, achieved, task_error, bound):
+            a.flags.writeable = False
+        if info:
+            for v in info.values():
+                if type(v) is np.ndarray:
+                    v.flags.writeable = False
         s[0](self, qd)
         s[1](self, achieved)
         s[2](self, task_error)
@@ -125,10 +140,22 @@ class SolveResult:
         s[5](self, method)
         s[6](self, velocity_policy)
         s[7](self, velocity_scale)
-        s[8](self, np.zeros(len(qd), dtype=bool) if bound is None else bound)
+        s[8](self, bound)
         s[9](self, limits_active)
         s[10](self, fallback)
-        s[11](self, {} if info is None else info)
+        s[11](self, _EMPTY if not info else MappingProxyType(dict(info)))
+
+    def __reduce__(self):
+        values = {f: getattr(self, f) for f in _FIELDS}
+        values["info"] = dict(values["info"])
+        return _restore_result, (values,)
+
+
+_EMPTY: Mapping[str, Any] = MappingProxyType({})
+
+
+def _restore_result(values: dict) -> SolveResult:
+    return SolveResult(**values)
 
 
 _FIELDS = ("qd", "achieved", "task_error", "damping", "sigma_min", "method", "velocity_policy",
@@ -156,8 +183,9 @@ SolveResult.sigma_min = property(_get_sigma, _SIGMA_SLOT.__set__,
 
 def _make_result(qd, J, xi, damping, sigma, method, policy, scale, bound, active, fallback, info):
     achieved = J @ qd
-    return SolveResult(qd, achieved, xi - achieved, damping, sigma, method, policy, scale, bound,
-                       active, fallback, info)
+    return SolveResult(qd=qd, achieved=achieved, task_error=xi - achieved, damping=damping,
+                       sigma_min=sigma, method=method, velocity_policy=policy, velocity_scale=scale,
+                       bound=bound, limits_active=active, fallback=fallback, info=info)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -344,11 +372,12 @@ class Solver:
         achieved = _dot(J, qd)
         err = xi - achieved
         if limits is None or self.velocity_policy is None:
-            return SolveResult(qd, achieved, err, damping, sigma, self.method, "none", 1.0,
-                               _zeros(n, dtype=bool), (), False, info)
+            return SolveResult(qd=qd, achieved=achieved, task_error=err, damping=damping,
+                               sigma_min=sigma, method=self.method, info=info)
         qd, policy, scale, bound, active = self._policy(qd, limits, n)
         if policy == "none":
-            return SolveResult(qd, achieved, err, damping, sigma, self.method, policy, scale, bound,
-                               active, False, info)
+            return SolveResult(qd=qd, achieved=achieved, task_error=err, damping=damping,
+                               sigma_min=sigma, method=self.method, velocity_policy=policy,
+                               velocity_scale=scale, bound=bound, limits_active=active, info=info)
         return _make_result(qd, J, xi, damping, sigma, self.method, policy, scale, bound, active,
                             False, info)

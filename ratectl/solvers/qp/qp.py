@@ -250,8 +250,9 @@ class QP(Solver):
             info["conflicts"] = conflicts
         if G is not None:
             info["extra_active"] = _dot(G, qd) >= h - self.tolerance
-        return SolveResult(qd, achieved, err, self.damping, _LazySigma(None, Jw), self.method,
-                           "none", 1.0, bound, active, False, info)
+        return SolveResult(qd=qd, achieved=achieved, task_error=err, damping=self.damping,
+                           sigma_min=_LazySigma(None, Jw), method=self.method, bound=bound,
+                           limits_active=active, info=info)
 
     # ------------------------------------------------------------------ backends
     @staticmethod
@@ -317,11 +318,13 @@ class QP(Solver):
         qd = np.minimum(np.maximum(qd * scale, lo), hi)
         achieved = np.dot(J, qd)
         policy = "scaled" if scale < 1.0 else "none"
-        return SolveResult(qd, achieved, xi - achieved, self._dls.damping, r.sigma_min, self.method,
-                           policy, scale, (qd >= hi - self.tolerance) | (qd <= lo + self.tolerance),
-                           ("velocity",) if scale < 1.0 else (), True,
-                           {"error": str(exc), "status": getattr(exc, "status", None),
-                            "problem": getattr(exc, "problem", None)})
+        return SolveResult(qd=qd, achieved=achieved, task_error=xi - achieved, damping=self._dls.damping,
+                           sigma_min=r.sigma_min, method=self.method, velocity_policy=policy,
+                           velocity_scale=scale,
+                           bound=(qd >= hi - self.tolerance) | (qd <= lo + self.tolerance),
+                           limits_active=("velocity",) if scale < 1.0 else (), fallback=True,
+                           info={"error": str(exc), "status": getattr(exc, "status", None),
+                                 "problem": getattr(exc, "problem", None)})
 
 
 
