@@ -105,30 +105,9 @@ def to_mjcf(chain: Chain, *, name: str | None = None, radius: float = 0.03,
     Returns:
         The MJCF document as a string.
     """
-    if not isinstance(chain, Chain):
-        raise InputError(f"chain must be a ratectl.Chain, got {type(chain).__name__}",
-                         argument="chain", value=chain)
-    if actuators not in (None, "position", "velocity"):
-        raise InputError(f"actuators must be None, 'position' or 'velocity', got {actuators!r}",
-                         argument="actuators", value=actuators)
-    for arg, v in (("radius", radius), ("kp", kp), ("timestep", timestep), ("density", density)):
-        try:
-            fv = float(v)
-        except (TypeError, ValueError):
-            fv = math.nan
-        if not (fv > 0 and math.isfinite(fv)):
-            raise InputError(f"{arg} must be a positive number, got {v!r}", argument=arg, value=v)
-    if not (armature >= 0 and damping >= 0):
-        raise InputError("armature and damping must be >= 0", argument="armature", value=armature)
-    if kv is None:
-        kv = 2.0 * math.sqrt(kp * max(armature, 1e-3)) if actuators == "position" else 3000.0 * max(
-            armature, 1e-3)
-    joints = chain.joints
-    n = len(joints)
+    kv = _check_export_options(chain, actuators=actuators, radius=radius, kp=kp, kv=kv,
+                               timestep=timestep, density=density, armature=armature, damping=damping)
     names = list(chain.joint_names)
-    if len(set(names)) != n:
-        raise InputError(f"joint names must be unique for MJCF, got {names}", argument="chain",
-                         value=names)
     mname = _xml_escape(name if name is not None else chain.name)
     grav = "0 0 -9.81" if gravity else "0 0 0"
     lines = [f'<mujoco model="{mname}">',
@@ -145,10 +124,56 @@ def to_mjcf(chain: Chain, *, name: str | None = None, radius: float = 0.03,
                   'rgb2="1 1 1" width="64" height="64"/>',
                   "  </asset>"]
     lines += ["  <worldbody>",
-             '    <light pos="0 0 3" dir="0 0 -1" directional="true"/>']
+              '    <light pos="0 0 3" dir="0 0 -1" directional="true"/>']
     if floor:
         lines.append('    <geom name="floor" type="plane" size="3 3 0.05" contype="0" conaffinity="0" '
                      'rgba="0.82 0.84 0.86 1"/>')
+    lines += _obstacle_lines(obstacles)
+    lines += _body_lines(chain, radius=radius, site=site, gravity_compensation=gravity_compensation)
+    lines.append("  </worldbody>")
+    if actuators is not None:
+        lines.append("  <actuator>")
+        for jn in names:
+            jn = _xml_escape(jn)
+            if actuators == "position":
+                lines.append(f'    <position name="{jn}" joint="{jn}" kp="{_num(kp)}" kv="{_num(kv)}"/>')
+            else:
+                lines.append(f'    <velocity name="{jn}" joint="{jn}" kv="{_num(kv)}"/>')
+        lines.append("  </actuator>")
+    lines.append("</mujoco>")
+    return "\n".join(lines) + "\n"
+
+
+def _check_export_options(chain, *, actuators, radius, kp, kv, timestep, density, armature,
+                          damping) -> float:
+    """Validate :func:`to_mjcf`'s options; returns the velocity gain kv (its default filled in)."""
+    if not isinstance(chain, Chain):
+        raise InputError(f"chain must be a ratectl.Chain, got {type(chain).__name__}",
+                         argument="chain", value=chain)
+    if actuators not in (None, "position", "velocity"):
+        raise InputError(f"actuators must be None, 'position' or 'velocity', got {actuators!r}",
+                         argument="actuators", value=actuators)
+    for arg, v in (("radius", radius), ("kp", kp), ("timestep", timestep), ("density", density)):
+        try:
+            fv = float(v)
+        except (TypeError, ValueError):
+            fv = math.nan
+        if not (fv > 0 and math.isfinite(fv)):
+            raise InputError(f"{arg} must be a positive number, got {v!r}", argument=arg, value=v)
+    if not (armature >= 0 and damping >= 0):
+        raise InputError("armature and damping must be >= 0", argument="armature", value=armature)
+    names = list(chain.joint_names)
+    if len(set(names)) != len(names):
+        raise InputError(f"joint names must be unique for MJCF, got {names}", argument="chain",
+                         value=names)
+    if kv is None:
+        kv = 2.0 * math.sqrt(kp * max(armature, 1e-3)) if actuators == "position" else 3000.0 * max(
+            armature, 1e-3)
+    return float(kv)
+
+
+def _obstacle_lines(obstacles) -> list[str]:
+    lines = []
     for k, ob in enumerate(obstacles):
         if not isinstance(ob, Mapping):
             raise InputError(f"obstacles[{k}] must be a mapping of MJCF geom attributes, got "
@@ -157,6 +182,15 @@ def to_mjcf(chain: Chain, *, name: str | None = None, radius: float = 0.03,
         attrs.update(ob)
         text = " ".join(f'{key}="{_xml_escape(_attr_text(v))}"' for key, v in attrs.items())
         lines.append(f"    <geom {text}/>")
+    return lines
+
+
+def _body_lines(chain: Chain, *, radius: float, site: str, gravity_compensation: bool) -> list[str]:
+    """The nested link bodies: body i at ``post_{i−1} · pre_i``, its joint about z, the tool site."""
+    joints = chain.joints
+    n = len(joints)
+    names = chain.joint_names
+    lines = []
     gc = ' gravcomp="1"' if gravity_compensation else ""
     indent = "    "
     prev_post = chain.base
@@ -187,18 +221,7 @@ def to_mjcf(chain: Chain, *, name: str | None = None, radius: float = 0.03,
     for _ in range(n):
         indent = indent[:-2]
         lines.append(f"{indent}</body>")
-    lines.append("  </worldbody>")
-    if actuators is not None:
-        lines.append("  <actuator>")
-        for jn in names:
-            jn = _xml_escape(jn)
-            if actuators == "position":
-                lines.append(f'    <position name="{jn}" joint="{jn}" kp="{_num(kp)}" kv="{_num(kv)}"/>')
-            else:
-                lines.append(f'    <velocity name="{jn}" joint="{jn}" kv="{_num(kv)}"/>')
-        lines.append("  </actuator>")
-    lines.append("</mujoco>")
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def compile_mjcf(model_or_xml):
