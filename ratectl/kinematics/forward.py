@@ -98,14 +98,14 @@ def _reference_kernel(chain, what: str, batched: bool):
             parts.append(J.reshape(J.shape[:-2] + (6 * n,)))
         return np.concatenate(parts, axis=-1)
 
-    if not batched:
-        def kernel(*q):
-            return tuple(flat(np.array(q, dtype=float)).tolist())
-    else:
-        def kernel(q, out, first):
-            out[...] = flat(np.ascontiguousarray(q.T)).T
-            return out
-    return kernel
+    def scalar_kernel(*q):
+        return tuple(flat(np.array(q, dtype=float)).tolist())
+
+    def batched_kernel(q, out, first):
+        out[...] = flat(np.ascontiguousarray(q.T)).T
+        return out
+
+    return batched_kernel if batched else scalar_kernel
 
 
 def _kernel(chain, what: str, batched: bool):

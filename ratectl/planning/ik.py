@@ -60,6 +60,17 @@ class IKResult:
                 f"{'' if self.within_limits else ', outside the joint limits'}")
 
 
+def _positive(name: str, value: object, *, allow_inf: bool = False) -> float:
+    try:
+        v = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        v = math.nan
+    if not v > 0.0 or (not allow_inf and not math.isfinite(v)):
+        allowed = "a positive number (inf allowed)" if allow_inf else "a positive finite number"
+        raise InputError(f"{name} must be {allowed}, got {value!r}", argument=name, value=value)
+    return v
+
+
 def ik(chain, T_target, q0, *, tol: float | tuple[float, float] = (1e-9, 1e-9), max_iter: int = 200,
        damping: float = 1e-3, max_step: float = 0.2) -> IKResult:
     """Joint positions q with ``chain.fk(q) ≈ T_target``, by damped Newton steps from ``q0``.
@@ -89,19 +100,18 @@ def ik(chain, T_target, q0, *, tol: float | tuple[float, float] = (1e-9, 1e-9), 
     if q.shape != (chain.dof,):
         raise InputError(f"q0 must be one configuration ({chain.dof},), got shape {q.shape}",
                          argument="q0", value=q0)
-    tol_p, tol_o = (tol, tol) if np.isscalar(tol) else tuple(tol)  # type: ignore[misc]
-    for name, v in (("tol", tol_p), ("tol", tol_o), ("damping", damping), ("max_step", max_step)):
-        try:
-            fv = float(v)
-        except (TypeError, ValueError):
-            fv = math.nan
-        if not fv > 0.0 or (name != "max_step" and not math.isfinite(fv)):
-            raise InputError(f"{name} must be a positive number (max_step may be inf), got {v!r}",
-                             argument=name, value=v)
+    tols = (tol, tol) if isinstance(tol, int | float | np.floating) else tuple(tol)
+    if len(tols) != 2:
+        raise InputError(f"tol must be a number or a pair (position [m], orientation [rad]), got {tol!r}",
+                         argument="tol", value=tol)
+    tol_p = _positive("tol", tols[0])
+    tol_o = _positive("tol", tols[1])
+    damping = _positive("damping", damping)
+    max_step = _positive("max_step", max_step, allow_inf=True)
     if not (isinstance(max_iter, int | np.integer) and max_iter >= 0):
         raise InputError(f"max_iter must be a non-negative integer, got {max_iter!r}",
                          argument="max_iter", value=max_iter)
-    lam2 = float(damping) ** 2
+    lam2 = damping**2
     e = np.empty(6)
     it = 0
     T, J = chain.fk_jacobian(q)

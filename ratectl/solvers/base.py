@@ -177,7 +177,8 @@ def _get_sigma(self):
     return v
 
 
-SolveResult.sigma_min = property(_get_sigma, _SIGMA_SLOT.__set__,
+# mypy cannot see a slot replaced by a property; the type of the attribute stays float
+SolveResult.sigma_min = property(_get_sigma, _SIGMA_SLOT.__set__,  # type: ignore[misc, assignment]
                                  doc="σ_min of (weighted) J (computed lazily by DLS).")
 
 
