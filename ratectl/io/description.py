@@ -43,6 +43,12 @@ class JointDescription:
     qlim: tuple[float, float] | None = None
     vmax: float | None = None
 
+    def __post_init__(self) -> None:
+        for name in ("pre", "post"):
+            a = np.array(getattr(self, name), dtype=float)
+            a.flags.writeable = False
+            object.__setattr__(self, name, a)
+
 
 @dataclass(frozen=True, kw_only=True)
 class ModelDescription:
@@ -55,6 +61,12 @@ class ModelDescription:
     tool: np.ndarray
     name: str
     label: str
+
+    def __post_init__(self) -> None:
+        tool = np.array(self.tool, dtype=float)
+        tool.flags.writeable = False
+        object.__setattr__(self, "tool", tool)
+        object.__setattr__(self, "joints", tuple(self.joints))
 
 
 def axis_rotation(axis) -> np.ndarray:

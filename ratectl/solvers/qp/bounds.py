@@ -4,6 +4,8 @@ limits (:func:`joint_velocity_bounds`), with the source of every active bound.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ...errors import InputError
@@ -27,6 +29,7 @@ _NONE, _VEL, _POS, _ACC = 0, 1, 2, 3
 _KIND = {_VEL: "velocity", _POS: "position", _ACC: "acceleration"}
 
 
+@dataclass(frozen=True, kw_only=True)
 class VelocityBounds:
     """Per-joint velocity box for one step (see :func:`joint_velocity_bounds`).
 
@@ -38,14 +41,17 @@ class VelocityBounds:
             priority (velocity > position > acceleration).
     """
 
-    __slots__ = ("lower", "upper", "source_lower", "source_upper", "conflicts")
+    lower: np.ndarray
+    upper: np.ndarray
+    source_lower: np.ndarray
+    source_upper: np.ndarray
+    conflicts: tuple[tuple[int, tuple[str, ...]], ...] = ()
 
-    def __init__(self, lower, upper, source_lower, source_upper, conflicts):
-        self.lower = lower
-        self.upper = upper
-        self.source_lower = source_lower
-        self.source_upper = source_upper
-        self.conflicts = conflicts
+    def __post_init__(self) -> None:
+        for name in ("lower", "upper", "source_lower", "source_upper"):
+            a = np.array(getattr(self, name))
+            a.flags.writeable = False
+            object.__setattr__(self, name, a)
 
 
 class _BoundCache:
@@ -236,7 +242,8 @@ def joint_velocity_bounds(limits, *, q=None, qd_prev=None, dt=None, margin: floa
     qd_prev = _vec("qd_prev", qd_prev, n)
     cache = _BoundCache(limits, lim, dt, margin)
     lo, hi, slo, shi, conflicts = _bounds(cache, q, qd_prev, True)
-    return VelocityBounds(np.array(lo, dtype=float), np.array(hi, dtype=float), slo, shi, conflicts)
+    return VelocityBounds(lower=np.array(lo, dtype=float), upper=np.array(hi, dtype=float),
+                          source_lower=slo, source_upper=shi, conflicts=conflicts)
 
 
 def _vec(name, v, n):
