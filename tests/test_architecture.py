@@ -3,7 +3,8 @@
 The package is layered along the data flow of a control cycle. A module may import from its own
 subpackage and from any layer below; an import that goes up (or sideways between two layers of
 the same rank) would make a cycle possible and is refused here. Imports inside functions count
-too: a lazy import is still a dependency. Names starting with ``_`` stay inside their subpackage.
+too: a lazy import is still a dependency. Imports under ``if TYPE_CHECKING:`` are not run and
+serve annotations only (a chain type in the kinematics layer); they are exempt. Names starting with ``_`` stay inside their subpackage.
 """
 
 from __future__ import annotations
@@ -52,7 +53,14 @@ def _module_name(path: Path) -> str:
 def _imports(source: str, module: str, *, is_pkg: bool = False):
     """(line, imported module, imported names) of every ratectl import in a module's source."""
     tree = ast.parse(source)
+    type_only = set()
+    for node in ast.walk(tree):  # "if TYPE_CHECKING:" imports exist for annotations only
+        if isinstance(node, ast.If) and getattr(node.test, "id", getattr(node.test, "attr", "")) \
+                == "TYPE_CHECKING":
+            type_only.update(id(n) for b in node.body for n in ast.walk(b))
     for node in ast.walk(tree):
+        if id(node) in type_only:
+            continue
         if isinstance(node, ast.ImportFrom):
             if node.level:
                 base = module.split(".")
@@ -119,6 +127,8 @@ def test_imports_go_down_the_layers_and_keep_private_names_private(path):
     ("from .. import paths\n", "imports must go down"),  # control and paths share a rank
     ("from ..model.limits import _private\n", "private name"),
     ("import ratectl\n", "top-level package"),
+    ("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    pass\nfrom ..control import x\n",
+     "imports must go down"),
 ])
 def test_the_checker_catches_what_it_must(source, expected):
     module = "ratectl.solvers.base" if "paths" not in source else "ratectl.control.controller"
@@ -129,3 +139,5 @@ def test_the_checker_accepts_downward_and_internal_imports():
     source = ("from ..model.limits import Limits\nfrom .damped import DLS\n"
               "from .qp.bounds import _BoundCache\nfrom ..errors import InputError\n")
     assert _problems(source, "ratectl.solvers.base") == []
+    type_only = "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..model import Chain\n"
+    assert _problems(type_only, "ratectl.kinematics.forward") == []
