@@ -4,7 +4,8 @@ The package is layered along the data flow of a control cycle. A module may impo
 subpackage and from any layer below; an import that goes up (or sideways between two layers of
 the same rank) would make a cycle possible and is refused here. Imports inside functions count
 too: a lazy import is still a dependency. Imports under ``if TYPE_CHECKING:`` are not run and
-serve annotations only (a chain type in the kinematics layer); they are exempt. Names starting with ``_`` stay inside their subpackage.
+serve annotations only (a chain type in the kinematics layer); they are exempt. Names
+starting with ``_`` stay inside their subpackage.
 """
 
 from __future__ import annotations
