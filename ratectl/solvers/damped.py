@@ -266,6 +266,12 @@ class SDLS(Solver):
         return (f"SDLS(gamma_max={self.gamma_max!r}, "
                 f"characteristic_length={self.characteristic_length!r})")
 
+    def _solve_weighted(self, J, xi):
+        # the clamps act on the weighted variables; mapped back by W_q^{-1/2} a joint could
+        # exceed γ_max, so the final q̇ is clamped again (uniformly: the direction is kept)
+        qd, damping, sigma, info = super()._solve_weighted(J, xi)
+        return self._clamp(qd, self.gamma_max), damping, sigma, info
+
     @staticmethod
     def _clamp(w, d):
         mx = float(np.max(np.abs(w))) if w.size else 0.0
