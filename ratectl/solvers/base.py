@@ -208,7 +208,8 @@ def _check_problem(J, xi):
         _check_finite(J, xi)
     # magnitude: products like JJᵀ must not overflow (|J|, |ξ| up to ~1e145 are accepted)
     jr = J.ravel()
-    s = _dot(jr, jr) + _dot(xi, xi)
+    with np.errstate(over="ignore"):
+        s = _dot(jr, jr) + _dot(xi, xi)
     if not s < _MAX_SQ:
         _check_finite(J, xi)
         raise InputError(f"J and xi must have entries below {_MAX_ENTRY:.0e} in magnitude (their "

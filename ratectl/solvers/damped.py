@@ -174,7 +174,8 @@ class AdaptiveDLS(Solver):
             sigma = smin
         else:  # manipulability
             c, info = _dpotrf(G)
-            wm = float(np.prod(np.diagonal(c))) if info == 0 else 0.0
+            with np.errstate(over="ignore", under="ignore"):
+                wm = float(np.prod(np.diagonal(c))) if info == 0 else 0.0
             r = wm / self.manipulability_threshold
             lam2 = self._lm2 * (1.0 - r) ** 2 if r < 1.0 else 0.0
             sigma = _LazySigma(G)

@@ -104,9 +104,13 @@ def box_qp_exact(P, b, lo, hi, x_start=None, *, max_iter: int | None = None):
     its bound and add that joint to W. The objective decreases strictly at every step, so
     no working set repeats; the method ends in finitely many steps.
 
+    A positive semidefinite P (no damping) is handled too: where P_FF is singular the
+    face's minimiser is the least-squares one (the objective of a least-squares task is
+    bounded below, so it exists).
+
     Returns (x, state) with state[i] = +1 / −1 / 0 for a joint at its upper / lower
-    bound / free, or (None, None) when a factorisation fails (P not positive definite)
-    or ``max_iter`` steps (default 10·n + 20) do not settle.
+    bound / free, or (None, None) when a solve fails or ``max_iter`` steps (default
+    10·n + 20) do not settle.
     """
     n = b.shape[0]
     if max_iter is None:
@@ -123,8 +127,14 @@ def box_qp_exact(P, b, lo, hi, x_start=None, *, max_iter: int | None = None):
             F = np.flatnonzero(free)
             held = ~free
             rhs = b[F] - (P[np.ix_(F, np.flatnonzero(held))] @ xt[held] if held.any() else 0.0)
-            _, xf, info = _dposv(P[np.ix_(F, F)], rhs)
-            if info != 0 or not np.all(np.isfinite(xf)):
+            PFF = P[np.ix_(F, F)]
+            _, xf, info = _dposv(PFF, rhs)
+            if info != 0:  # positive semidefinite (no damping): a least-squares minimiser
+                try:
+                    xf = np.linalg.lstsq(PFF, rhs, rcond=1e-13)[0]
+                except (np.linalg.LinAlgError, ValueError):
+                    return None, None
+            if not np.all(np.isfinite(xf)):
                 return None, None
             xt[F] = xf
         d = xt - x

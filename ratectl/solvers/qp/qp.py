@@ -30,6 +30,8 @@ __all__ = ['QP']
 
 _dposv = _lapack.dposv
 
+_KKT_TOL = 1e-9  # accepted scaled KKT violation (see kkt_violation)
+
 
 _dot = np.dot
 
@@ -228,6 +230,11 @@ class QP(Solver):
                     qd, held, niter = _box_active_set(P, b, lo, hi, x0, lists=lists)
                     if qd is not None:
                         status = "active-set"
+                        # the Schur-complement steps lose accuracy when P is ill-conditioned
+                        # (tiny damping): certify, else let the backend and the exact
+                        # active set below answer
+                        if kkt_violation(P, b, lo, hi, qd) > _KKT_TOL:
+                            qd = held = None
         certified = status if qd is not None else None
         if qd is None:
             lo_ = np.full(n, -_BIG) if lo is None else lo
@@ -250,11 +257,11 @@ class QP(Solver):
                     if refined is not None:
                         qd = refined
                 # certify: inside the box and optimal (KKT); else the exact active set
-                if kkt_violation(P, b, lo, hi, qd) <= 1e-9:
+                if kkt_violation(P, b, lo, hi, qd) <= _KKT_TOL:
                     certified = "kkt"
                 else:
                     x2, st2 = box_qp_exact(P, b, lo, hi, qd)
-                    if x2 is None or kkt_violation(P, b, lo, hi, x2) > 1e-9:
+                    if x2 is None or kkt_violation(P, b, lo, hi, x2) > _KKT_TOL:
                         exc = SolverError(
                             f"QP ({self.backend}): no answer satisfies the optimality (KKT) "
                             "conditions; the problem is too ill-conditioned", status="uncertified",
