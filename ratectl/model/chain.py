@@ -262,7 +262,8 @@ class Chain:
         return np.all((a >= self._lower - tolerance) & (a <= self._upper + tolerance), axis=-1)
 
     def random_q(self, size=None, *, rng=None, margin: float = 0.0) -> np.ndarray:
-        """Random configurations, uniform within the limits (±π, or ±1 m, where unlimited).
+        """Random configurations, uniform within the limits (±π, or ±1 m, where unlimited;
+        a one-sided limit gets a 2π (2 m) range beyond it).
 
         Args:
             size: batch shape (None for a single (n,) configuration).
@@ -279,9 +280,13 @@ class Chain:
         except (TypeError, ValueError) as exc:
             raise InputError(f"random_q: bad size or rng ({exc})", argument="size",
                              value=(size, rng)) from None
+        # the margin applies to the limits that exist; an absent side samples ±π (±1 m)
+        # around zero, or 2π (2 m) beyond the existing side of a one-sided limit
         default = np.where(self._prismatic, 1.0, math.pi)
-        lo = np.where(np.isfinite(self._lower), self._lower, -default) + margin
-        hi = np.where(np.isfinite(self._upper), self._upper, default) - margin
+        flo, fhi = np.isfinite(self._lower), np.isfinite(self._upper)
+        lo = np.where(flo, self._lower + margin,
+                      np.where(fhi, self._upper - margin - 2.0 * default, -default))
+        hi = np.where(fhi, self._upper - margin, np.where(flo, lo + 2.0 * default, default))
         bad = np.flatnonzero(lo > hi)
         if bad.size:
             j = int(bad[0])
