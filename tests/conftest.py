@@ -14,6 +14,12 @@ settings.register_profile("explore", derandomize=False, max_examples=500, print_
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 
+def pytest_addoption(parser):
+    # for tests/fuzz (a subdirectory conftest cannot add options): long runs
+    parser.addoption("--soak", action="store_true", default=False,
+                     help="fuzz suite: many more examples and fresh random draws (long run)")
+
+
 BUILTIN_ARMS = ["ur5e", "panda", "puma560", "stanford", "iiwa7", "rpr", "planar2r"]
 
 

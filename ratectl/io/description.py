@@ -24,7 +24,8 @@ import numpy as np
 from ..errors import ImportModelError
 from ..spatial import transform
 
-__all__ = ["JointDescription", "ModelDescription", "axis_rotation", "unit_axis", "movable_joint"]
+__all__ = ["JointDescription", "ModelDescription", "axis_rotation", "unit_axis", "movable_joint",
+           "MAX_LENGTH"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -86,11 +87,26 @@ def axis_rotation(axis) -> np.ndarray:
     return c * np.eye(3) + K + ((1.0 - c) / s2) * np.outer(k, k)
 
 
+#: Largest constant offset [m] a model file may give (far beyond any robot; sums over
+#: thousands of links stay finite).
+MAX_LENGTH = 1e9
+
+
 def unit_axis(v, what: str) -> np.ndarray:
-    n = float(np.linalg.norm(v))
-    if not n > 1e-12:
-        raise ImportModelError(f"{what}: the joint axis {v.tolist()} has zero length", element=what)
-    return v / n
+    """``v / ‖v‖``, scaled by max |v_i| first so that the norm cannot overflow or underflow
+    (an axis ``1e300 1e300 0`` is the unit vector (1, 1, 0)/√2)."""
+    v = np.asarray(v, dtype=float)
+    big = float(np.max(np.abs(v))) if v.size else 0.0
+    if not (math.isfinite(big) and big > 0.0):
+        raise ImportModelError(f"{what}: the joint axis {v.tolist()} has zero length"
+                               if big == 0.0 else f"{what}: the joint axis {v.tolist()} is not finite",
+                               element=what)
+    u = v / big
+    n = float(np.linalg.norm(u))
+    if big * n < 1e-12:
+        raise ImportModelError(f"{what}: the joint axis {v.tolist()} has (near) zero length "
+                               f"({big * n:.3g} < 1e-12)", element=what)
+    return u / n
 
 
 def movable_joint(kind: str, O: np.ndarray, axis: np.ndarray, *, name: str, qlim, vmax,

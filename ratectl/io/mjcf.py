@@ -1,7 +1,9 @@
 """Read a serial arm from MJCF (:func:`parse_mjcf`) and match chain joints to a MuJoCo model.
 
 MJCF is checked with the same guard as URDF (:func:`~ratectl.io.xml.parse_xml_safely`),
-mesh/heightfield/texture file references are replaced by placeholders, and the result
+``<include>`` files are inlined under caps and confined to the model's directory, every
+element or attribute that would make MuJoCo open a file (mesh, heightfield, texture,
+skin, flexcomp, sub-model, plugin, ``*dir``) is removed, and the result
 is compiled by MuJoCo, the authority on MJCF semantics (defaults, angle units,
 ``euler`` sequences, ``ref`` positions); the chain is read from the compiled ``MjModel``.
 Joint-less bodies are folded into the next joint's ``pre`` or into the tool transform;
@@ -20,7 +22,7 @@ import numpy as np
 from ..errors import ImportModelError
 from ..spatial import rotation_from_quat, transform
 from .description import JointDescription, ModelDescription, movable_joint, unit_axis
-from .xml import parse_xml_safely, read_source
+from .xml import MAX_BYTES, MAX_DEPTH, parse_xml_safely, read_file_capped, read_source
 
 __all__ = ["parse_mjcf", "compile_mjcf", "mjcf_joint_addresses"]
 
@@ -72,6 +74,11 @@ def compile_mjcf(model_or_source):
     return _compile(model_or_source)[0]
 
 
+#: Caps on ``<include>``: files read in total (each inclusion counts), and nesting depth.
+MAX_INCLUDES = 64
+MAX_INCLUDE_DEPTH = 8
+
+
 def _compile(source):
     import mujoco
 
@@ -80,9 +87,15 @@ def _compile(source):
     if root.tag != "mujoco":
         raise ImportModelError(f"{label}: the root element must be <mujoco>, got <{root.tag}>",
                                element=f"<{root.tag}>")
-    _inline_includes(root, directory, label, depth=0)
+    size = len(data) if isinstance(data, bytes) else len(data.encode("utf-8", "surrogatepass"))
+    budget = _IncludeBudget(directory, size)
+    _inline_includes(root, directory, label, depth=0, budget=budget)
+    _check_depth_after_includes(root, label)
     _strip_files(root)
-    xml = ET.tostring(root, encoding="unicode")
+    try:
+        xml = ET.tostring(root, encoding="unicode")
+    except RecursionError:  # guarded by the depth check; kept as a last line of defence
+        raise ImportModelError(f"{label}: elements are nested too deeply", element="mujoco") from None
     try:
         model = mujoco.MjModel.from_xml_string(xml)
     except ValueError as exc:
@@ -96,10 +109,60 @@ def _compile(source):
     return model, label
 
 
-def _inline_includes(root: ET.Element, directory: Path | None, label: str, *, depth: int) -> None:
-    """Replace ``<include file=...>`` by the (safely parsed) children of the included file."""
-    if depth > 8:
-        raise ImportModelError(f"{label}: <include> nested more than 8 levels", element="include")
+class _IncludeBudget:
+    """What the includes of one model may still read: files (each inclusion counts, so an
+    include bomb is stopped after :data:`MAX_INCLUDES`) and bytes (the model and every
+    included file together stay under :data:`~ratectl.io.xml.MAX_BYTES`); and the one
+    directory they must stay inside (the top model's, symlinks resolved)."""
+
+    def __init__(self, directory: Path | None, used: int) -> None:
+        self.root = None if directory is None else directory.resolve()
+        self.files = 0
+        self.bytes = used
+
+
+def _check_depth_after_includes(root: ET.Element, label: str) -> None:
+    stack = [(root, 1)]
+    while stack:
+        el, d = stack.pop()
+        if d > MAX_DEPTH:
+            raise ImportModelError(f"{label}: with its includes, elements are nested more than "
+                                   f"{MAX_DEPTH} levels deep (at <{el.tag}>); refused",
+                                   element=f"<{el.tag}>")
+        stack.extend((c, d + 1) for c in el)
+
+
+def _resolve_include(fname: str, directory: Path, budget: _IncludeBudget, label: str) -> Path:
+    """The file an ``<include file=...>`` names, confined to the model's directory."""
+    what = f"include {fname!r}"
+    if "\0" in fname or "://" in fname or fname.startswith(("/", "\\", "~")) or \
+            re.match(r"^[A-Za-z]:", fname) or Path(fname).is_absolute():
+        raise ImportModelError(f"{label}: <include file={fname!r}>: only relative paths inside the "
+                               "model's directory are read (no absolute paths, URLs or ~)", element=what)
+    if ".." in re.split(r"[\\/]", fname):
+        raise ImportModelError(f"{label}: <include file={fname!r}>: '..' is not allowed; includes "
+                               "must stay inside the model's directory", element=what)
+    fpath = directory / fname
+    try:
+        real = fpath.resolve(strict=True)
+    except (OSError, RuntimeError):
+        raise ImportModelError(f"{label}: <include file={fname!r}>: file not found", element=what) \
+            from None
+    if budget.root is None or not real.is_relative_to(budget.root):
+        raise ImportModelError(f"{label}: <include file={fname!r}> resolves to {str(real)!r}, outside "
+                               f"the model's directory {str(budget.root)!r}; refused", element=what)
+    return real
+
+
+def _inline_includes(root: ET.Element, directory: Path | None, label: str, *, depth: int,
+                     budget: _IncludeBudget) -> None:
+    """Replace ``<include file=...>`` by the (safely parsed) children of the included file.
+
+    Includes are confined (relative paths inside the top model's directory, no ``..``,
+    symlinks resolved), nested at most :data:`MAX_INCLUDE_DEPTH` deep, at most
+    :data:`MAX_INCLUDES` inclusions in total, and the bytes of the model and all its
+    inclusions together at most :data:`~ratectl.io.xml.MAX_BYTES`.
+    """
     for parent in list(root.iter()):
         for k, child in enumerate(list(parent)):
             if child.tag != "include":
@@ -108,36 +171,48 @@ def _inline_includes(root: ET.Element, directory: Path | None, label: str, *, de
             what = f"include {fname!r}"
             if not fname or directory is None:
                 raise ImportModelError(f"{label}: <include file={fname!r}> cannot be resolved "
-                                       "(includes need a file path, not XML text)", element=what)
-            if "://" in fname:
-                raise ImportModelError(f"{label}: <include file={fname!r}>: only local files are read",
+                                       "(includes need a model read from a file, not XML text)",
                                        element=what)
-            fpath = directory / fname
-            if not fpath.is_file():
-                raise ImportModelError(f"{label}: <include file={fname!r}>: file not found",
-                                       element=what)
-            sub = parse_xml_safely(fpath.read_bytes(), label=str(fpath))
-            _inline_includes(sub, fpath.parent, str(fpath), depth=depth + 1)
+            if depth + 1 > MAX_INCLUDE_DEPTH:
+                raise ImportModelError(f"{label}: <include> nested more than {MAX_INCLUDE_DEPTH} "
+                                       "levels", element="include")
+            real = _resolve_include(fname, directory, budget, label)
+            budget.files += 1
+            if budget.files > MAX_INCLUDES:
+                raise ImportModelError(f"{label}: more than {MAX_INCLUDES} <include> inclusions in "
+                                       "total (an include bomb?); refused", element=what)
+            data = read_file_capped(real, "MJCF include", MAX_BYTES - budget.bytes)
+            budget.bytes += len(data)
+            sub = parse_xml_safely(data, label=str(real))
+            _inline_includes(sub, real.parent, str(real), depth=depth + 1, budget=budget)
             parent.remove(child)
             for j, el in enumerate(list(sub)):
                 parent.insert(k + j, el)
 
 
+# Elements whose only purpose is data read from files (or plugin code), removed whole.
+_FILE_ELEMENTS = frozenset({"mesh", "hfield", "skin", "texture", "model", "plugin", "extension",
+                            "flexcomp", "flex"})
+# Attributes naming files or directories of files, removed wherever they appear.
+_FILE_ATTRS = re.compile(r"^(file.*|meshdir|texturedir|assetdir|content_type|plugin|instance)$")
+
+
 def _strip_files(root: ET.Element) -> None:
-    """Drop assets read from files (meshes, heightfields, textures, skins) and turn geoms
-    that used them into small spheres: kinematics does not depend on them, and ratectl
-    never opens them."""
-    for asset in root.iter("asset"):
-        for el in list(asset):
-            if el.tag in ("mesh", "hfield", "skin", "texture") or el.get("file"):
-                asset.remove(el)
-            elif el.tag == "material":
-                el.attrib.pop("texture", None)
+    """Remove everything that makes MuJoCo open a file or load plugin code: the elements
+    of :data:`_FILE_ELEMENTS` (meshes, heightfields, skins, textures, sub-models,
+    flexcomps, plugins), every ``file*`` attribute on any element (texture ``fileright``,
+    ...) and the compiler's ``meshdir``/``texturedir``/``assetdir``, and turn geoms that
+    used a mesh or heightfield into small spheres. Kinematics does not depend on them, and
+    MuJoCo is never given a file name (checked after stripping)."""
     for parent in list(root.iter()):
         for el in list(parent):
-            if el.tag == "skin":
+            if el.tag in _FILE_ELEMENTS:
                 parent.remove(el)
     for el in root.iter():
+        for a in [a for a in el.attrib if _FILE_ATTRS.match(a)]:
+            del el.attrib[a]
+        if el.tag == "material":
+            el.attrib.pop("texture", None)
         if el.tag == "geom" and (el.get("mesh") is not None or el.get("hfield") is not None
                                  or el.get("type") in ("mesh", "hfield", "sdf")):
             el.attrib.pop("mesh", None)
@@ -151,9 +226,10 @@ def _strip_files(root: ET.Element) -> None:
                 g.set("type", "sphere")
             g.attrib.pop("mesh", None)
             g.attrib.pop("hfield", None)
-    for c in root.iter("compiler"):
-        for a in ("meshdir", "texturedir", "assetdir"):
-            c.attrib.pop(a, None)
+    for el in root.iter():  # the guarantee the docstring gives
+        if el.tag in _FILE_ELEMENTS or any(_FILE_ATTRS.match(a) for a in el.attrib):
+            raise ImportModelError(f"<{el.tag}> still names a file after stripping (internal error)",
+                                   element=f"<{el.tag}>")
 
 
 def _mj_name(model, objtype, i: int, kind: str) -> str:

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import ImportModelError
 from ..spatial import rotation_from_rpy, transform
-from .description import JointDescription, ModelDescription, movable_joint, unit_axis
+from .description import MAX_LENGTH, JointDescription, ModelDescription, movable_joint, unit_axis
 from .xml import float_attr, floats, parse_xml_safely, read_source
 
 __all__ = ["parse_urdf"]
@@ -99,6 +99,9 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
         j = parent_joint.get(link)
         return None if j is None else joints[j].find("parent").get("link")
 
+    if not links:
+        raise ImportModelError(f"{label}: the robot has no <link> elements; a URDF chain needs links "
+                               "connected by joints", element="robot")
     roots = sorted(lk for lk in links if lk not in parent_joint)
     if base_link is None:
         if len(roots) != 1:
@@ -195,6 +198,10 @@ def _urdf_origin(el: ET.Element | None, what: str) -> np.ndarray:
     if el is None:
         return np.eye(4)
     xyz = floats(el.get("xyz"), 3, default=[0.0, 0.0, 0.0], what=f"{what} <origin xyz>")
+    if not float(np.max(np.abs(xyz))) <= MAX_LENGTH:
+        raise ImportModelError(f"{what} <origin xyz={el.get('xyz')!r}>: offsets beyond "
+                               f"{MAX_LENGTH:.0e} m are refused (lengths are in metres)",
+                               element=what)
     rpy = floats(el.get("rpy"), 3, default=[0.0, 0.0, 0.0], what=f"{what} <origin rpy>")
     return transform(rotation_from_rpy(rpy), xyz)
 

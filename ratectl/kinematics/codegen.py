@@ -221,7 +221,7 @@ def _live_lines(em: _Emitter, outputs: list) -> list[tuple[str, str]]:
 
 
 def generate_source(joints, base: np.ndarray, tool: np.ndarray, *, what: str,
-                    batched: bool) -> str:
+                    batched: bool, guard: bool = False) -> str:
     """Python source of ``kernel(q0, …, q{n-1}[, out])``.
 
     ``what`` is ``"fk"`` (16 pose entries), ``"jac"`` (6n Jacobian entries) or
@@ -244,6 +244,10 @@ def generate_source(joints, base: np.ndarray, tool: np.ndarray, *, what: str,
         return _batched_source(n, lines, outputs)
     args = ", ".join(f"q{i}" for i in range(n))
     body = [f"def kernel({args}):"]
+    if guard:  # prismatic joint values beyond ±1e150 m would overflow the pose
+        for i, j in enumerate(joints):
+            if j.kind == "prismatic":
+                body.append(f"    if not -1e150 <= q{i} <= 1e150: _refuse(q{i}, {i})")
     for target, expr in lines:
         body.append(f"    {target} = {expr}")
     body.append("    return (" + ", ".join(_ref(v) for v in outputs) + ",)")
@@ -323,19 +327,30 @@ def _batched_source(n: int, lines, outputs) -> str:
 _SERIAL = itertools.count()
 
 
-def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str = "chain"):
+def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str = "chain",
+                   guard=None, chain=None):
     """Compile the generated source; returns the function (its source text in ``__source__``).
 
     The source is registered with :mod:`linecache` under a unique file name
     (``<ratectl kernel LABEL fkjac #k>``), so tracebacks, :func:`inspect.getsource` and
     pdb show the generated lines.
     """
-    src = generate_source(joints, base, tool, what=what, batched=batched)
+    src = generate_source(joints, base, tool, what=what, batched=batched,
+                          guard=guard is not None and not batched)
     if batched:
         namespace = {"tan": np.tan, "add": np.add, "subtract": np.subtract,
                      "multiply": np.multiply, "negative": np.negative}
     else:
         namespace = {"cos": math.cos, "sin": math.sin}
+        if guard is not None:
+            n = len(joints)
+
+            def _refuse(value, i):  # raises the range error of ``guard`` (``chain`` given)
+                a = np.zeros(n)
+                a[i] = value
+                guard(chain, a)
+
+            namespace["_refuse"] = _refuse
     filename = f"<ratectl kernel {label} {what}{' batched' if batched else ''} #{next(_SERIAL)}>"
     linecache.cache[filename] = (len(src), None, src.splitlines(True), filename)
     exec(compile(src, filename, "exec"), namespace)

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import InputError
 from .codegen import compile_kernel
-from .reference import reference_fk_jacobian
+from .reference import check_prismatic_range, reference_fk_jacobian
 
 __all__ = [
     "fk",
@@ -50,6 +50,9 @@ KERNEL_MODE = "reference" if os.environ.get("RATECTL_KERNELS", "").strip().lower
     else "generated"
 """``"generated"`` (default) or ``"reference"`` (``RATECTL_KERNELS=reference`` at import)."""
 
+#: Chains with more joints than this use the reference kernel (no generated code).
+MAX_GENERATED_DOF = 64
+
 _CHUNK = 8192  # columns per batched kernel call: fits L2, amortises ufunc overhead
 _FRAMES = ("base", "tool")
 
@@ -63,11 +66,14 @@ def build_kernel(chain, key):
     fn = chain._kernels.get(key)
     if fn is None:
         what, batched = key
-        if KERNEL_MODE == "reference":
+        if KERNEL_MODE == "reference" or chain.dof > MAX_GENERATED_DOF:
+            # very long chains: generating and compiling straight-line code grows with n
+            # (~1 ms per joint); the reference recursion is linear and needs no compile
             fn = _reference_kernel(chain, what, batched)
         else:
             fn = compile_kernel(chain.joints, chain.base, chain.tool, what=what, batched=batched,
-                                label=chain.name)
+                                label=chain.name, guard=check_prismatic_range if
+                                chain.prismatic.any() else None, chain=chain)
         chain._kernels[key] = fn
     return fn
 
@@ -118,8 +124,10 @@ def _single(chain, q):
         vals = q.tolist()
     elif isinstance(q, (list, tuple)) and len(q) == chain._n:
         try:
-            vals = [float(x) for x in q]
+            vals = [float(x) for x in q if not isinstance(x, complex)]
         except (TypeError, ValueError):
+            return None
+        if len(vals) != chain._n:  # complex entries: check_q refuses them
             return None
     else:
         return None
@@ -157,6 +165,7 @@ def _run(chain, q, what: str, width: int):
     batch = a.shape[:-1]
     if batch == ():
         return np.array(_kernel(chain, what, False)(*a.tolist())), ()
+    check_prismatic_range(chain, a)
     flat = a.reshape(-1, chain._n)
     B = flat.shape[0]
     out = np.empty((B, width))

@@ -19,7 +19,8 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["frames", "joint_axes", "reference_fk_jacobian", "numerical_jacobian"]
+__all__ = ["frames", "joint_axes", "reference_fk_jacobian", "numerical_jacobian", "MAX_PRISMATIC",
+           "check_prismatic_range"]
 
 
 def _motion(kind: str, q: np.ndarray) -> np.ndarray:
@@ -38,9 +39,29 @@ def _motion(kind: str, q: np.ndarray) -> np.ndarray:
     return M
 
 
+#: Largest |q| [m] of a prismatic joint: beyond it poses and Jacobians leave floating-point
+#: range (sums of ~1e308 overflow); such a q is refused with an InputError.
+MAX_PRISMATIC = 1e150
+
+
+def check_prismatic_range(chain, a) -> None:
+    """Refuse prismatic joint values beyond ±:data:`MAX_PRISMATIC` m in ``a`` (..., n)."""
+    pr = chain.prismatic
+    if pr.any():
+        v = np.abs(a[..., pr])
+        if v.size and not float(v.max()) <= MAX_PRISMATIC:
+            idx = np.flatnonzero(pr)
+            j = int(idx[np.argmax(v.reshape(-1, idx.size).max(axis=0))])
+            raise InputError(f"q[{j}] of prismatic joint {chain.joint_names[j]!r} is "
+                             f"{float(v.max()):.3g} m; prismatic joint values must be within "
+                             f"±{MAX_PRISMATIC:.0e} m (beyond, poses overflow floating point)",
+                             argument="q", value=a)
+
+
 def all_frames(chain, q):
     """(DH frames (..., n+1, 4, 4), joint frames T_{i-1}·P_i (..., n, 4, 4), tool pose)."""
     a = chain.check_q(q)
+    check_prismatic_range(chain, a)
     batch = a.shape[:-1]
     n = chain._n
     Ts = np.empty(batch + (n + 1, 4, 4))

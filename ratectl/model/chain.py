@@ -241,10 +241,12 @@ class Chain:
     def check_q(self, q, *, name: str = "q") -> np.ndarray:
         """Validate ``q`` (shape (..., n), finite) and return it as a float array."""
         try:
+            if isinstance(q, str | bytes) or np.iscomplexobj(q):
+                raise TypeError(name)  # no silent conversion: strings, complex numbers
             a = np.asarray(q, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError(f"{name} must be an array of {self._n} joint values, got {q!r}",
-                             argument=name, value=q) from None
+        except (TypeError, ValueError, OverflowError):
+            raise InputError(f"{name} must be an array of {self._n} real joint values, got "
+                             f"{q!r}"[:300], argument=name, value=q) from None
         if a.ndim == 0 or a.shape[-1] != self._n:
             raise InputError(
                 f"{name} must have shape ({self._n},) or (..., {self._n}) — one value per joint "
@@ -260,19 +262,43 @@ class Chain:
         return np.all((a >= self._lower - tolerance) & (a <= self._upper + tolerance), axis=-1)
 
     def random_q(self, size=None, *, rng=None, margin: float = 0.0) -> np.ndarray:
-        """Random configurations, uniform within the limits (±π, or ±1 m, where unlimited).
+        """Random configurations, uniform within the limits (±π, or ±1 m, where unlimited;
+        a one-sided limit gets a 2π (2 m) range beyond it).
 
         Args:
             size: batch shape (None for a single (n,) configuration).
             rng: a ``numpy.random.Generator`` or seed.
             margin: keep this far inside the limits [rad or m].
         """
-        rng = np.random.default_rng(rng)
+        if isinstance(margin, str | bytes) or not (isinstance(margin, int | float | np.number)
+                                                     and margin >= 0 and math.isfinite(margin)):
+            raise InputError(f"margin must be a finite non-negative distance [rad or m], got "
+                             f"{margin!r}", argument="margin", value=margin)
+        try:
+            rng = np.random.default_rng(rng)
+            shape = (self._n,) if size is None else tuple(int(s) for s in np.atleast_1d(size)) + (self._n,)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"random_q: bad size or rng ({exc})", argument="size",
+                             value=(size, rng)) from None
+        # the margin applies to the limits that exist; an absent side samples ±π (±1 m)
+        # around zero, or 2π (2 m) beyond the existing side of a one-sided limit
         default = np.where(self._prismatic, 1.0, math.pi)
-        lo = np.where(np.isfinite(self._lower), self._lower, -default) + margin
-        hi = np.where(np.isfinite(self._upper), self._upper, default) - margin
-        shape = (self._n,) if size is None else tuple(np.atleast_1d(size)) + (self._n,)
-        return lo + (hi - lo) * rng.random(shape)
+        flo, fhi = np.isfinite(self._lower), np.isfinite(self._upper)
+        lo = np.where(flo, self._lower + margin,
+                      np.where(fhi, self._upper - margin - 2.0 * default, -default))
+        hi = np.where(fhi, self._upper - margin, np.where(flo, lo + 2.0 * default, default))
+        bad = np.flatnonzero(lo > hi)
+        if bad.size:
+            j = int(bad[0])
+            raise InputError(f"random_q: margin {margin!r} is more than half the range of joint {j} "
+                             f"({self._joints[j].name!r}, [{self._lower[j]:.6g}, {self._upper[j]:.6g}]); "
+                             "no configuration keeps that far inside the limits", argument="margin",
+                             value=margin)
+        if any(s < 0 for s in shape):
+            raise InputError(f"random_q: size must be non-negative, got {size!r}", argument="size",
+                             value=size)
+        # lo + (hi − lo)·u can round past hi by an ulp: clip into [lo, hi]
+        return np.minimum(np.maximum(lo + (hi - lo) * rng.random(shape), lo), hi)
 
     def __repr__(self) -> str:
         kinds = "".join("RP"[int(p)] for p in self._prismatic)

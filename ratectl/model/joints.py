@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import ModelError
 from ..spatial import rigid_transform_defect, rotx, rotz, transform, translation
 
-__all__ = ["DH", "MDH", "Joint", "JOINT_KINDS", "check_limits", "check_transform"]
+__all__ = ["DH", "MDH", "Joint", "JOINT_KINDS", "MAX_LENGTH", "check_limits", "check_transform"]
 
 JOINT_KINDS = ("revolute", "prismatic")
 
@@ -89,7 +89,18 @@ def check_transform(T, name: str) -> np.ndarray:
     defect = rigid_transform_defect(T)
     if defect is not None:
         raise ModelError(f"{name} {defect}", field=name, value=T)
-    return np.array(T, dtype=float)
+    out = np.array(T, dtype=float)
+    far = float(np.max(np.abs(out[:3, 3])))
+    if not far <= MAX_LENGTH:
+        raise ModelError(f"{name}: its translation ({far:.3g} m) exceeds the {MAX_LENGTH:.0e} m "
+                         "ratectl accepts for a link (a unit mistake?); lengths are in metres",
+                         field=name, value=T)
+    return out
+
+
+#: Largest constant translation [m] of a joint, base or tool transform (and DH a, d): far
+#: beyond any robot, and small enough that sums over thousands of links stay finite.
+MAX_LENGTH = 1e9
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -130,6 +141,10 @@ class DH:
             if not math.isfinite(fv):
                 raise ModelError(f"{type(self).__name__}.{f} must be finite, got {v!r}",
                                  field=f, value=v)
+            if f in ("a", "d") and not abs(fv) <= MAX_LENGTH:
+                raise ModelError(f"{type(self).__name__}.{f} = {fv:.3g} m exceeds the {MAX_LENGTH:.0e} m "
+                                 "ratectl accepts for a link length or offset (a unit mistake?); "
+                                 "lengths are in metres", field=f, value=v)
             object.__setattr__(self, f, fv)
         if self.joint not in JOINT_KINDS:
             raise ModelError(f"joint must be one of {JOINT_KINDS}, got {self.joint!r}",

@@ -44,6 +44,8 @@ class Limits:
     def __post_init__(self) -> None:
         for name in ("lower", "upper", "vmax", "amax"):
             try:
+                if np.iscomplexobj(getattr(self, name)):
+                    raise TypeError("complex")
                 a = np.array(getattr(self, name), dtype=float)
             except (TypeError, ValueError):
                 raise InputError(f"Limits.{name} must be an array of numbers, got "
@@ -57,6 +59,7 @@ class Limits:
         if not (self.lower.shape == self.upper.shape == self.vmax.shape == self.amax.shape):
             raise InputError("Limits.lower, upper, vmax and amax must have the same length",
                              argument="limits", value=self)
+        _validate(self.lower, self.upper, self.vmax, self.amax, "Limits")
 
     @classmethod
     def of(cls, obj, n: int) -> Limits:
@@ -77,14 +80,29 @@ class Limits:
             if a.shape != (n,):
                 raise InputError(f"limits.{name} must have one value per joint ({n}), got shape "
                                  f"{a.shape}", argument="limits", value=obj)
-            if np.any(np.isnan(a)):
-                raise InputError(f"limits.{name} contains NaN", argument="limits", value=obj)
-        if np.any(arrs[2] <= 0) or np.any(arrs[3] <= 0):
-            raise InputError("limits.vmax and limits.amax must be positive magnitudes (inf where "
-                             "absent)", argument="limits", value=obj)
-        if np.any(arrs[0] > arrs[1]):
-            raise InputError("limits.lower must not exceed limits.upper", argument="limits", value=obj)
         return cls(*arrs)
+
+
+def _validate(lower, upper, vmax, amax, what) -> None:
+    """Refuse limits no motion can respect: NaN anywhere, vmax or amax not > 0, lower > upper,
+    lower = +inf or upper = −inf."""
+    for name, a in (("lower", lower), ("upper", upper), ("vmax", vmax), ("amax", amax)):
+        bad = np.flatnonzero(np.isnan(a))
+        if bad.size:
+            raise InputError(f"{what}.{name} is NaN at joint {int(bad[0])}; use ±inf for an absent "
+                             "limit", argument=name, value=a)
+    for name, a in (("vmax", vmax), ("amax", amax)):
+        bad = np.flatnonzero(~(a > 0))
+        if bad.size:
+            j = int(bad[0])
+            raise InputError(f"{what}.{name}[{j}] = {a[j]!r}: velocity and acceleration limits must be "
+                             "positive magnitudes (inf where absent)", argument=name, value=a)
+    bad = np.flatnonzero(~(lower <= upper) | (lower == math.inf) | (upper == -math.inf))
+    if bad.size:
+        j = int(bad[0])
+        raise InputError(f"{what}: joint {j} has lower = {lower[j]!r} and upper = {upper[j]!r}; "
+                         "lower must not exceed upper, and neither may be infinite on the wrong "
+                         "side", argument="lower", value=(lower, upper))
 
 
 def braking_speed_discrete(D, adt, inv_adt2, inv_dt):

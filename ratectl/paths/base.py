@@ -12,7 +12,12 @@ from ..spatial import so3_exp, so3_log
 from .checks import _positive
 from .time_laws import make_time_law
 
-__all__ = ['Path']
+__all__ = ['Path', 'MAX_STEPS']
+
+
+#: Default cap on the number of steps of a loop over a path (:meth:`Path.steps`): 10⁶
+#: (about 17 minutes at 1 kHz).
+MAX_STEPS = 1_000_000
 
 
 # ---------------------------------------------------------------------- paths
@@ -105,10 +110,25 @@ class Path:
         s, sd, _ = self.law(float(t))
         return self.twist_at(s, sd=sd)
 
-    def sample(self, dt: float):
-        """Times, poses and twists of the nominal law every ``dt`` [s]: (t, (N,4,4), (N,6))."""
+    def steps(self, dt: float, *, max_steps: int = MAX_STEPS) -> int:
+        """Number of samples N = ⌈duration/dt⌉ + 1 of the nominal law every ``dt`` [s],
+        checked up front: more than ``max_steps`` raises :class:`~ratectl.errors.InputError`
+        naming the duration and dt (instead of running out of time or memory later).
+        Loops over a path (sampling, following it) call this before any work."""
         dt = _positive(dt, "dt")
-        n = int(math.ceil(self.duration / dt - 1e-9)) + 1
+        n = self.duration / dt
+        if not n <= max_steps - 1:
+            raise InputError(
+                f"{type(self).__name__} lasts {self.duration:.6g} s; every dt = {dt:.3g} s that is "
+                f"{n:.3g} steps, more than the {max_steps} allowed; use a larger dt, a faster path "
+                "(speed, acceleration), or pass a larger max_steps", argument="dt", value=dt)
+        return int(math.ceil(n - 1e-9)) + 1
+
+    def sample(self, dt: float, *, max_steps: int = MAX_STEPS):
+        """Times, poses and twists of the nominal law every ``dt`` [s]: (t, (N,4,4), (N,6)).
+        At most ``max_steps`` samples (see :meth:`steps`)."""
+        dt = _positive(dt, "dt")
+        n = self.steps(dt, max_steps=max_steps)
         t = np.minimum(np.arange(n) * dt, self.duration)
         return t, np.array([self.pose(x) for x in t]), np.array([self.twist(x) for x in t])
 

@@ -13,8 +13,10 @@ from ..spatial import rigid_transform_defect
 
 def _positive(value, name: str) -> float:
     try:
+        if isinstance(value, str | bytes) or np.iscomplexobj(value):
+            raise TypeError(name)  # no silent conversion of text or complex numbers
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputError(f"{name} must be a positive number, got {value!r}", argument=name,
                          value=value) from None
     if not (v > 0.0 and math.isfinite(v)):
@@ -31,7 +33,12 @@ def _pose(T, name: str) -> np.ndarray:
 
 
 def _vec3(v, name: str) -> np.ndarray:
-    a = np.asarray(v, dtype=float)
+    try:
+        if isinstance(v, str | bytes) or np.iscomplexobj(v):
+            raise TypeError(name)
+        a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name} must be a finite 3-vector, got {v!r}", argument=name, value=v) from None
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise InputError(f"{name} must be a finite 3-vector, got {v!r}", argument=name, value=v)
     return a

@@ -163,6 +163,11 @@ class Governor:
         dt = float(dt)
         if not (dt > 0.0 and math.isfinite(dt)):
             raise InputError(f"dt must be a positive period [s], got {dt!r}", argument="dt", value=dt)
+        path.steps(dt)  # the work is bounded up front: too many steps raise here, not hours later
+        if not path.length > 0.0:
+            raise InputError("the path has zero length (its start and end poses coincide): there is "
+                             "nothing to plan; to hold a pose, step the controller with target=",
+                             argument="path", value=path)
         jp = joint_path(chain, path, q0, max_joint_step=self.max_joint_step,
                         sigma_tolerance=self.sigma_tolerance, nullspace_gain=self.nullspace_gain)
         if len(jp.s) < 2:

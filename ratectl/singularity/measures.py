@@ -35,11 +35,29 @@ _TINY = 1e-300
 
 
 # ====================================================================== measures from J
+_MAX_ENTRY = 1e145  # |J| beyond this: J Jᵀ overflows
+
+
 def _as_jacobian(J, name="J") -> np.ndarray:
-    a = np.asarray(J, dtype=float)
+    try:
+        if isinstance(J, str | bytes) or np.iscomplexobj(J):
+            raise TypeError(name)
+        a = np.asarray(J, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name} must be a real matrix (..., m, n), got {J!r}"[:300], argument=name,
+                         value=J) from None
     if a.ndim < 2 or a.shape[-1] < 1 or a.shape[-2] < 1:
         raise InputError(f"{name} must have shape (..., m, n), typically (..., 6, n); got {a.shape}",
                          argument=name, value=J)
+    # checked before LAPACK sees it: a NaN makes LAPACK print to stdout and fail
+    big = float(np.max(np.abs(a))) if a.size else 0.0
+    if not big <= _MAX_ENTRY:
+        if not np.all(np.isfinite(a)):
+            bad = np.argwhere(~np.isfinite(a))[0].tolist()
+            raise InputError(f"{name} must be finite; got NaN or inf at index {bad}", argument=name,
+                             value=J)
+        raise InputError(f"{name} has entries of {big:.3g}; at most {_MAX_ENTRY:.0e} in magnitude is "
+                         "accepted (products overflow floating point)", argument=name, value=J)
     return a
 
 
@@ -79,7 +97,19 @@ def manipulability(J, *, length: float | None = None) -> np.ndarray:
     """
     A = _scaled(_as_jacobian(J), length)
     G = A @ np.swapaxes(A, -1, -2) if A.shape[-1] >= A.shape[-2] else np.swapaxes(A, -1, -2) @ A
-    return np.sqrt(np.maximum(np.linalg.det(G), 0.0))
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        w = np.sqrt(np.maximum(np.linalg.det(G), 0.0))
+    if not np.all(np.isfinite(w)):
+        # det(G) left floating-point range: the product of the singular values in logs
+        s = np.linalg.svd(A, compute_uv=False)
+        with np.errstate(divide="ignore"):
+            logw = np.sum(np.log(s), axis=-1)
+        if np.any(logw > 709.0):
+            raise InputError("manipulability overflows floating point (the product of the "
+                             f"singular values exceeds 1e308; largest σ = {float(s.max()):.3g})",
+                             argument="J", value=J)
+        w = np.exp(logw)
+    return w
 
 
 def condition_number(J, *, length: float | None = None, inverse: bool = False) -> np.ndarray:

@@ -192,19 +192,14 @@ def _make_result(qd, J, xi, damping, sigma, method, policy, scale, bound, active
 # --------------------------------------------------------------------------- helpers
 def _check_problem(J, xi):
     if type(J) is not np.ndarray or J.dtype != _F64:
-        try:
-            J = np.asarray(J, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError(f"J must be a numeric (m, n) matrix, got {J!r}", argument="J",
-                             value=J) from None
+        J = _real_array("J", J, "a numeric (m, n) matrix")
     if type(xi) is not np.ndarray or xi.dtype != _F64:
-        try:
-            xi = np.asarray(xi, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError(f"xi must be a numeric twist, got {xi!r}", argument="xi",
-                             value=xi) from None
+        xi = _real_array("xi", xi, "a numeric twist")
     if J.ndim != 2:
         raise InputError(f"J must be a 2-D (m, n) matrix, got shape {J.shape}", argument="J", value=J)
+    if J.shape[0] == 0 or J.shape[1] == 0:
+        raise InputError(f"J must have at least one row and one column, got shape {J.shape}",
+                         argument="J", value=J)
     if xi.shape != (J.shape[0],):
         raise InputError(f"xi must have shape ({J.shape[0]},) to match J {J.shape}, got {xi.shape}",
                          argument="xi", value=xi)
@@ -212,7 +207,32 @@ def _check_problem(J, xi):
     s = sum(J.ravel().tolist()) + sum(xi.tolist())
     if s - s != 0.0:
         _check_finite(J, xi)
+    # magnitude: products like JJᵀ must not overflow (|J|, |ξ| up to ~1e145 are accepted)
+    jr = J.ravel()
+    with np.errstate(over="ignore"):
+        s = _dot(jr, jr) + _dot(xi, xi)
+    if not s < _MAX_SQ:
+        _check_finite(J, xi)
+        raise InputError(f"J and xi must have entries below {_MAX_ENTRY:.0e} in magnitude (their "
+                         "products overflow floating point); got max |J| = "
+                         f"{float(np.max(np.abs(J))):.3g}, max |xi| = {float(np.max(np.abs(xi))):.3g}",
+                         argument="J", value=J)
     return J, xi
+
+
+_MAX_ENTRY = 1e145
+_MAX_SQ = _MAX_ENTRY**2
+
+
+def _real_array(name, value, what):
+    """``value`` as a float64 array; complex numbers and non-numbers are refused."""
+    try:
+        if np.iscomplexobj(value):
+            raise TypeError("complex")
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name} must be {what} of real numbers, got {value!r}"[:300], argument=name,
+                         value=value) from None
 
 
 def _check_finite(J, xi):
@@ -224,6 +244,8 @@ def _check_finite(J, xi):
 
 def _positive(name, value, *, allow_zero=False):
     try:
+        if isinstance(value, str | bytes) or np.iscomplexobj(value):
+            raise TypeError(name)
         v = float(value)
     except (TypeError, ValueError):
         raise InputError(f"{name} must be a number, got {value!r}", argument=name, value=value) from None
@@ -372,6 +394,11 @@ class Solver:
             raise SolverError(f"{self.method}: linear algebra failed: {exc}") from exc
         achieved = _dot(J, qd)
         err = xi - achieved
+        t = sum(qd.tolist()) + sum(err.tolist())
+        if t - t != 0.0:
+            raise SolverError(f"{self.method}: the solution is not finite (J is too ill-conditioned "
+                              "for floating point at this damping)", status="non-finite",
+                              problem={"J": J, "xi": xi})
         if limits is None or self.velocity_policy is None:
             return SolveResult(qd=qd, achieved=achieved, task_error=err, damping=damping,
                                sigma_min=sigma, method=self.method, info=info)

@@ -174,7 +174,8 @@ class AdaptiveDLS(Solver):
             sigma = smin
         else:  # manipulability
             c, info = _dpotrf(G)
-            wm = float(np.prod(np.diagonal(c))) if info == 0 else 0.0
+            with np.errstate(over="ignore", under="ignore"):
+                wm = float(np.prod(np.diagonal(c))) if info == 0 else 0.0
             r = wm / self.manipulability_threshold
             lam2 = self._lm2 * (1.0 - r) ** 2 if r < 1.0 else 0.0
             sigma = _LazySigma(G)
@@ -265,6 +266,12 @@ class SDLS(Solver):
     def __repr__(self) -> str:
         return (f"SDLS(gamma_max={self.gamma_max!r}, "
                 f"characteristic_length={self.characteristic_length!r})")
+
+    def _solve_weighted(self, J, xi):
+        # the clamps act on the weighted variables; mapped back by W_q^{-1/2} a joint could
+        # exceed γ_max, so the final q̇ is clamped again (uniformly: the direction is kept)
+        qd, damping, sigma, info = super()._solve_weighted(J, xi)
+        return self._clamp(qd, self.gamma_max), damping, sigma, info
 
     @staticmethod
     def _clamp(w, d):

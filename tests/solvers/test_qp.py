@@ -196,17 +196,28 @@ def test_extra_inequalities_match_daqp(rng):
         S.QP().solve(np.eye(6), np.ones(6), extra_inequalities=(np.ones((2, 5)), np.ones(2)))
 
 
-def test_failed_solve_raises_with_the_problem_or_falls_back(rng):
+def test_failed_osqp_on_a_box_problem_is_answered_by_the_exact_active_set(rng):
     J, xi, lim, q, _ = _active_problems(rng, 1)[0]
     bad = S.QP(damping=0.05, shortcut=False, settings={"max_iter": 1, "polishing": False})
+    r = bad.solve(J, xi, limits=lim, q=q, dt=0.01)
+    ref = S.QP(damping=0.05).solve(J, xi, limits=lim, q=q, dt=0.01)
+    assert r.info["status"] == "exact-active-set" and not r.fallback
+    assert np.max(np.abs(r.qd - ref.qd)) < 1e-9
+
+
+def test_failed_solve_raises_with_the_problem_or_falls_back(rng):
+    J, xi, lim, q, _ = _active_problems(rng, 1)[0]
+    # extra rows: no exact rescue, OSQP's failure is reported
+    extra = (rng.standard_normal((2, 6)), np.array([0.05, -0.02]))
+    bad = S.QP(damping=0.05, shortcut=False, settings={"max_iter": 1, "polishing": False})
     with pytest.raises(SolverError) as info:
-        bad.solve(J, xi, limits=lim, q=q, dt=0.01)
+        bad.solve(J, xi, limits=lim, q=q, dt=0.01, extra_inequalities=extra)
     problem = info.value.problem
     assert set(problem) >= {"P", "q", "lb", "ub"} and problem["P"].shape == (6, 6)
     assert info.value.status is not None
     fb = S.QP(damping=0.05, shortcut=False, fallback=True,
               settings={"max_iter": 1, "polishing": False})
-    r = fb.solve(J, xi, limits=lim, q=q, dt=0.01)
+    r = fb.solve(J, xi, limits=lim, q=q, dt=0.01, extra_inequalities=extra)
     assert r.fallback and "error" in r.info
     lo, hi = r.info["problem"]["lb"], r.info["problem"]["ub"]
     assert np.all(r.qd <= hi + 1e-12) and np.all(r.qd >= lo - 1e-12)

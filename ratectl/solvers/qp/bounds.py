@@ -249,7 +249,13 @@ def joint_velocity_bounds(limits, *, q=None, qd_prev=None, dt=None, margin: floa
 def _vec(name, v, n):
     if v is None:
         return None
-    a = np.asarray(v, dtype=float)
+    try:
+        if isinstance(v, str | bytes) or np.iscomplexobj(v):
+            raise TypeError(name)
+        a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name} must be a finite ({n},) vector of real numbers, got {v!r}"[:300],
+                         argument=name, value=v) from None
     if a.shape != (n,) or not np.all(np.isfinite(a)):
         raise InputError(f"{name} must be a finite ({n},) vector, got shape {a.shape}", argument=name,
                          value=v)

@@ -21,7 +21,7 @@ from ..base import (
 )
 from ..damped import DLS
 from ..nullspace import _objective
-from .active_set import _box_active_set, _polish
+from .active_set import _box_active_set, _polish, box_qp_exact, kkt_violation
 from .bounds import _BIG, _BoundCache, _box, _sources, _vec
 from .warm_osqp import _OSQP_DEFAULTS, _WarmOSQP
 
@@ -29,6 +29,8 @@ __all__ = ['QP']
 
 
 _dposv = _lapack.dposv
+
+_KKT_TOL = 1e-9  # accepted scaled KKT violation (see kkt_violation)
 
 
 _dot = np.dot
@@ -115,7 +117,7 @@ class QP(Solver):
         self._warm = None
 
     def solve(self, J, xi, *, limits=None, q=None, qd_prev=None, dt=None,
-              extra_inequalities=None) -> SolveResult:
+              extra_inequalities=None, qd_ff=None) -> SolveResult:
         """q̇ for the twist ``xi`` with the Jacobian ``J`` under the joint limits.
 
         Args:
@@ -126,6 +128,18 @@ class QP(Solver):
             dt: the control step [s].
             extra_inequalities: ``(G, h)`` with G (k, n) and h (k,): extra rows G q̇ ≤ h
                 (e.g. collision avoidance); a change of k re-creates the OSQP instance.
+            qd_ff: a joint-velocity feed-forward (n,) [rad/s or m/s] that the caller adds to
+                the answer. The QP then resolves the correction c (minimising
+                ½‖W_x^{1/2}(J c − ξ)‖² + ½λ²cᵀW_q c) and the velocity, position and
+                acceleration bounds hold for the **total** q̇_ff + c: the box of the total
+                is computed from ``q``, ``qd_prev`` and ``dt`` and shifted by −q̇_ff.
+                ``result.qd`` is c, and ``info["lower"]``/``["upper"]`` are c's box; extra
+                rows G q̇ ≤ h also hold for the total.
+
+        Every answer for a box-only problem is certified: it lies in its box and the KKT
+        conditions hold (:func:`~ratectl.solvers.qp.active_set.kkt_violation` ≤ 1e-9);
+        an answer that is not (an inaccurate OSQP result) is replaced by the exact
+        active-set solution (``info["certified"]`` says which path answered).
 
         Returns:
             :class:`~ratectl.solvers.SolveResult` with ``limits_active`` naming the kinds of
@@ -134,12 +148,20 @@ class QP(Solver):
         """
         J, xi = _check_problem(J, xi)
         m, n = J.shape
-        if dt is not None and not (dt > 0 and math.isfinite(dt)):
-            raise InputError(f"dt must be a positive step [s], got {dt!r}", argument="dt", value=dt)
-        if q is not None and (type(q) is not np.ndarray or q.shape != (n,)):
-            q = _vec("q", q, n)
-        if qd_prev is not None and (type(qd_prev) is not np.ndarray or qd_prev.shape != (n,)):
+        if dt is not None and (type(dt) is not float or not (dt > 0.0 and dt < math.inf)):
+            dt = _positive("dt", dt)
+        if q is not None:
+            if type(q) is not np.ndarray or q.shape != (n,) or q.dtype != np.float64:
+                q = _vec("q", q, n)
+            else:
+                t = sum(q.tolist())
+                if t - t != 0.0:  # NaN or inf: the position bounds cannot be computed
+                    q = _vec("q", q, n)
+        if qd_prev is not None and (type(qd_prev) is not np.ndarray or qd_prev.shape != (n,)
+                                    or not math.isfinite(sum(qd_prev.tolist()))):
             qd_prev = _vec("qd_prev", qd_prev, n)
+        if qd_ff is not None:
+            qd_ff = _vec("qd_ff", qd_ff, n)
         # objective ½‖W(Jq̇ − ξ)‖² + ½λ²q̇ᵀW_q q̇ (+ ½μ‖q̇ − z‖²)  →  ½q̇ᵀPq̇ − bᵀq̇
         if self._rows is not None:
             rows, mw = self._rows
@@ -157,8 +179,13 @@ class QP(Solver):
                                  "columns", argument="joint_weights", value=self.joint_weights)
             d = np.full(n, self._lam2) if self._wq is None else self._lam2 * self._wq
             reg = self._reg[n] = np.diag(d)
-        P = _dot(Jw.T, Jw) + reg
-        b = _dot(xiw, Jw)
+        with np.errstate(over="ignore", invalid="ignore"):
+            P = _dot(Jw.T, Jw) + reg
+            b = _dot(xiw, Jw)
+        t = sum(P.ravel().tolist()) + sum(b.tolist())
+        if t - t != 0.0:
+            raise InputError("QP: JᵀJ or Jᵀξ overflows (|J| and |ξ| must stay below ~1e150); "
+                             "the problem is outside floating-point range", argument="J", value=J)
         if self.objective is not None:
             if q is None:
                 raise InputError("QP with an objective needs q= (the joint positions)", argument="q",
@@ -178,9 +205,14 @@ class QP(Solver):
             if bc is None or bc.src is not limits or bc.dt != dt or bc.n != n:
                 bc = self._bcache = _BoundCache(limits, Limits.of(limits, n), dt, self.margin)
             lo, hi, conflicts = _box(bc, q, qd_prev)
+            lo_t, hi_t = lo, hi  # the box of the total q̇_ff + c
+            if qd_ff is not None:
+                lo, hi = lo - qd_ff, hi - qd_ff
         G = h = None
         if extra_inequalities is not None:
             G, h = _extra(extra_inequalities, n)
+            if qd_ff is not None:
+                h = h - _dot(G, qd_ff)
         # shortcut: the unconstrained minimiser P⁻¹b (= the DLS solution) if it is feasible
         qd = held = None
         slack = math.inf
@@ -198,19 +230,47 @@ class QP(Solver):
                     qd, held, niter = _box_active_set(P, b, lo, hi, x0, lists=lists)
                     if qd is not None:
                         status = "active-set"
+                        # the Schur-complement steps lose accuracy when P is ill-conditioned
+                        # (tiny damping): certify, else let the backend and the exact
+                        # active set below answer
+                        if kkt_violation(P, b, lo, hi, qd) > _KKT_TOL:
+                            qd = held = None
+        certified = status if qd is not None else None
         if qd is None:
             lo_ = np.full(n, -_BIG) if lo is None else lo
             hi_ = np.full(n, _BIG) if hi is None else hi
             try:
                 qd, status, niter, exact = self._backend_solve(P, -b, G, h, lo_, hi_)
             except SolverError as exc:
-                if not self.fallback:
-                    raise
-                return self._fallback_result(J, xi, lo_, hi_, exc)
-            if G is None and lo is not None and not exact:
-                refined = _polish(P, b, lo, hi, qd)
-                if refined is not None:
-                    qd = refined
+                if G is None and lo is not None:  # a box-only problem has an exact answer
+                    qd, st2 = box_qp_exact(P, b, lo, hi, None)
+                    if qd is not None:
+                        status, niter, exact = "exact-active-set", -1, True
+                        held = st2.tolist()
+                if qd is None:
+                    if not self.fallback:
+                        raise
+                    return self._fallback_result(J, xi, lo_, hi_, exc)
+            if G is None and lo is not None and held is None:
+                if not exact:
+                    refined = _polish(P, b, lo, hi, qd)
+                    if refined is not None:
+                        qd = refined
+                # certify: inside the box and optimal (KKT); else the exact active set
+                if kkt_violation(P, b, lo, hi, qd) <= _KKT_TOL:
+                    certified = "kkt"
+                else:
+                    x2, st2 = box_qp_exact(P, b, lo, hi, qd)
+                    if x2 is None or kkt_violation(P, b, lo, hi, x2) > _KKT_TOL:
+                        exc = SolverError(
+                            f"QP ({self.backend}): no answer satisfies the optimality (KKT) "
+                            "conditions; the problem is too ill-conditioned", status="uncertified",
+                            problem=self._problem(P, -b, G, h, lo, hi))
+                        if not self.fallback:
+                            raise exc
+                        return self._fallback_result(J, xi, lo, hi, exc)
+                    qd, status, certified = x2, "exact-active-set", "exact-active-set"
+                    held = st2.tolist()
             if lo is not None:
                 # clip into the box (violations up to the tolerance are numerical)
                 slack = min(float((hi - qd).min()), float((qd - lo).min()))
@@ -224,6 +284,16 @@ class QP(Solver):
                             raise exc
                         return self._fallback_result(J, xi, lo, hi, exc)
                     qd = np.minimum(np.maximum(qd, lo), hi)
+        if G is not None:  # the extra rows: feasible to the tolerance
+            gv = float(np.max(_dot(G, qd) - h)) if G.shape[0] else 0.0
+            if gv > self.tolerance * (1.0 + float(np.max(np.abs(qd)))):
+                exc = SolverError(f"QP ({self.backend}) solution violates an extra inequality by "
+                                  f"{gv:.2e}", status=status,
+                                  problem=self._problem(P, -b, G, h, lo, hi))
+                if not self.fallback:
+                    raise exc
+                return self._fallback_result(J, xi, lo if lo is not None else np.full(n, -_BIG),
+                                             hi if hi is not None else np.full(n, _BIG), exc)
         achieved = _dot(J, qd)
         err = xi - achieved
         e = sum(err.tolist())
@@ -235,17 +305,20 @@ class QP(Solver):
         active = ()
         if held is not None:  # the active-set step knows which bounds hold
             bound = np.array(held, dtype=bool)
-            active = _sources(bc, qd_prev, lo, hi, held)
+            active = _sources(bc, qd_prev, lo_t, hi_t, held)
         elif lo is not None and slack < self.tolerance:
             tol = self.tolerance
             at_hi = qd >= hi - tol  # an absent bound is ±1e15: never reached
             at_lo = qd <= lo + tol
             bound = at_hi | at_lo
-            active = _sources(bc, qd_prev, lo, hi, (at_hi.astype(int) - (at_lo & ~at_hi)).tolist())
+            active = _sources(bc, qd_prev, lo_t, hi_t,
+                              (at_hi.astype(int) - (at_lo & ~at_hi)).tolist())
         else:
             bound = _zeros(n, dtype=bool)
         info = {"status": status, "iterations": niter, "backend": self.backend, "lower": lo,
                 "upper": hi}
+        if certified is not None:
+            info["certified"] = certified
         if conflicts:
             info["conflicts"] = conflicts
         if G is not None:
@@ -268,10 +341,11 @@ class QP(Solver):
                 if w is None or w.n != n or w.k != k:
                     w = self._warm = _WarmOSQP(n, k, P, c, G, h, lo, hi, self._osqp_settings)
                 x, sv, status, niter, polish = w.solve(P, c, G, h, lo, hi)
-            except ValueError as exc:
+            except Exception as exc:  # ValueError, osqp.OSQPException, ...: OSQP's own types
                 self._warm = None
-                raise SolverError(f"OSQP rejected the problem: {exc}", status="error",
-                                  problem=self._problem(P, c, G, h, lo, hi)) from exc
+                raise SolverError(f"OSQP rejected the problem ({type(exc).__name__}: {exc}); check "
+                                  "the settings and that the data are finite and moderate",
+                                  status="error", problem=self._problem(P, c, G, h, lo, hi)) from exc
             if sv not in (1, 2) or not np.all(np.isfinite(x)):  # 1 solved, 2 solved inaccurate
                 self._warm = None
                 raise SolverError(f"OSQP failed: status {status!r}", status=status,
@@ -343,4 +417,8 @@ def _extra(extra, n):
     if not (np.all(np.isfinite(G)) and not np.any(np.isnan(h))):
         raise InputError("extra_inequalities must be finite (h may be +inf)",
                          argument="extra_inequalities", value=extra)
+    if np.any(h == -np.inf):
+        raise InputError("extra_inequalities: h contains -inf, a row G q̇ ≤ -inf no q̇ satisfies "
+                         "(h may be +inf for an inactive row)", argument="extra_inequalities",
+                         value=extra)
     return G, h
