@@ -19,10 +19,18 @@ from __future__ import annotations
 import importlib
 
 from .base import Driver, RobotState
-from .franka import FrankyDriver, franky_chain
+from .franka import FrankyDriver, FrankySim, franky_chain
 from .scripted import ScriptedDriver
 
-__all__ = ["Driver", "RobotState", "ScriptedDriver", "FrankyDriver", "franky_chain", "MujocoDriver"]
+__all__ = [
+    "Driver",
+    "RobotState",
+    "ScriptedDriver",
+    "FrankyDriver",
+    "FrankySim",
+    "franky_chain",
+    "MujocoDriver",
+]
 
 
 def __getattr__(name: str):

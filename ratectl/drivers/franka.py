@@ -32,7 +32,7 @@ from ..errors import DriverError, InputError
 from ..model import Chain
 from .base import RobotState
 
-__all__ = ["FrankyDriver", "franky_chain"]
+__all__ = ["FrankyDriver", "FrankySim", "franky_chain"]
 
 
 def _import_franky():
@@ -206,3 +206,114 @@ class FrankyDriver:
 
     def __repr__(self) -> str:
         return f"FrankyDriver({self.hostname!r}, chain={self._chain.name!r}, hold={self.hold:g} s)"
+
+
+_SIM_SERVER = r"""
+import random, sys
+import franky_sim
+from franky_sim.mujoco_simulator import MujocoSimulator
+
+def candidates(start):
+    for k in range(20000):
+        i = (start + k) % 16000000 + 1
+        yield f"127.{(i >> 16) & 255}.{(i >> 8) & 255}.{i & 255}"
+
+q0 = tuple(float(v) for v in sys.argv[1].split(",")) if len(sys.argv) > 1 and sys.argv[1] else None
+with MujocoSimulator() as sim:
+    robot = sim.add_robot() if q0 is None else sim.add_robot(initial_q=q0)
+    hosts = candidates(random.randrange(16000000))
+    with franky_sim.SimulationServer(sim, hostname_candidates=hosts) as server:
+        server.run_async()
+        print("READY", robot.hostname, flush=True)
+        sys.stdin.read()  # until the parent closes stdin
+        server.running = False
+"""
+
+
+class FrankySim:
+    """franky-sim's simulated FR3 served on loopback, in a process of its own.
+
+    A separate process has its own interpreter lock, as a real robot has its own computer:
+    the client's loop cannot starve the simulator. Use as a context manager::
+
+        with FrankySim() as sim:
+            driver = FrankyDriver(sim.hostname)
+            ...
+
+    Args:
+        q0: the arm's initial joint positions (7,) [rad], default franky-sim's.
+        startup_timeout: how long to wait for the server to come up [s].
+
+    Attributes:
+        hostname: the loopback address the robot is served on (``127.x.y.z``).
+        process: the server's ``subprocess.Popen``.
+    """
+
+    def __init__(self, *, q0=None, startup_timeout: float = 60.0) -> None:
+        import select
+        import subprocess
+        import sys
+
+        arg = "" if q0 is None else ",".join(repr(float(v)) for v in np.asarray(q0, dtype=float).reshape(-1))
+        self.process = subprocess.Popen(
+            [sys.executable, "-c", _SIM_SERVER, arg],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        ready, _, _ = select.select([self.process.stdout], [], [], float(startup_timeout))
+        line = self.process.stdout.readline() if ready else ""
+        if not line.startswith("READY"):
+            self.kill()
+            err = self.process.stderr.read()[-2000:] if self.process.stderr else ""
+            raise DriverError(
+                f"franky-sim did not start within {startup_timeout:g} s: {line.strip()} {err}",
+                driver="FrankySim",
+            )
+        self.hostname = line.split()[1]
+
+    def __enter__(self) -> FrankySim:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def alive(self) -> bool:
+        return self.process.poll() is None
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Shut the server down (closes its stdin; kills it if it does not exit in ``timeout``)."""
+        import subprocess
+
+        if self.process.poll() is None:
+            try:
+                self.process.stdin.close()
+                self.process.wait(timeout)
+            except (OSError, subprocess.TimeoutExpired):
+                self.kill()
+        for f in (self.process.stdout, self.process.stderr):
+            if f is not None:
+                f.close()
+
+    def kill(self) -> None:
+        """Kill the server at once (a robot that disappears)."""
+        if self.process.poll() is None:
+            self.process.kill()
+            self.process.wait(5.0)
+
+    def pause(self) -> None:
+        """Freeze the server (SIGSTOP): its state stops advancing, the connection stays."""
+        import signal
+
+        self.process.send_signal(signal.SIGSTOP)
+
+    def resume(self) -> None:
+        """Resume a paused server (SIGCONT)."""
+        import signal
+
+        self.process.send_signal(signal.SIGCONT)
+
+    def __repr__(self) -> str:
+        return f"FrankySim(hostname={getattr(self, 'hostname', None)!r}, alive={self.alive})"

@@ -251,6 +251,22 @@ def run(
                 value=path,
             )
 
+    # warm-up: one controller step on the first state, then reset — first-call costs (generated
+    # kernels, caches) must not land in the first period
+    try:
+        ctrl.step(
+            state0.q,
+            target=Td_fixed if Td_fixed is not None else (path.start if mode == "path" else None),
+            dt=period,
+        )
+    except Exception as exc:
+        raise InputError(
+            f"the controller cannot step on the first state: {type(exc).__name__}: {exc}",
+            argument="controller",
+            value=controller,
+        ) from exc
+    ctrl.reset()
+
     show = status_line if status_line is not None else (sys.stderr.isatty() and limit > 2.0)
     line = _StatusLine(bool(show))
 
