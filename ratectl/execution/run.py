@@ -12,8 +12,9 @@ Every period ``1/rate_hz`` the loop
    loop holds Python's GIL and starves anything else in the process (a simulator's server
    thread, a robot library's receive thread). Deadlines are absolute, so an oversleep in
    one period shortens the next and the mean rate holds; a cycle whose work ends after its
-   deadline is an *overrun*, and after one the schedule restarts from now (no burst of
-   catch-up cycles).
+   deadline is an *overrun*: the next cycle starts at once, and when the loop is more than
+   a whole period behind the schedule restarts from now (missed slots are skipped, never
+   made up in a burst).
 
 Safety (every way out stops the robot with ``driver.stop()`` and returns the record):
 
@@ -444,17 +445,19 @@ def run(
                     reason, outcome = f"{halting}; still moving {limit + 2.0:g} s in", "halted"
                     break
             now = time.perf_counter()
-            line.update(
-                now,
-                f"t {t:7.2f} s | {len(PER) / max(now - t0, 1e-9):6.1f} Hz | {status:<20} | "
-                f"err {(cmd.position_error * 1e3) if fresh and Td is not None else math.nan:7.3f} mm"
-                f" | overruns {overruns}",
-            )
+            if line.enabled and now >= line.next:
+                line.update(
+                    now,
+                    f"t {t:7.2f} s | {len(PER) / max(now - t0, 1e-9):6.1f} Hz | {status:<20} | "
+                    f"err {(cmd.position_error * 1e3) if fresh and Td is not None else math.nan:7.3f} mm"
+                    f" | overruns {overruns}",
+                )
             # 6. wait for the next deadline (sleep; never spin)
             deadline += period
             if now > deadline:
                 overruns += 1
-                deadline = now
+                if now > deadline + period:  # more than a period behind: skip the missed slots
+                    deadline = now
             else:
                 time.sleep(deadline - now)
     except KeyboardInterrupt as exc:
