@@ -209,7 +209,7 @@ class FrankyDriver:
 
 
 _SIM_SERVER = r"""
-import random, sys
+import os, random, sys
 import franky_sim
 from franky_sim.mujoco_simulator import MujocoSimulator
 
@@ -219,6 +219,11 @@ def candidates(start):
         yield f"127.{(i >> 16) & 255}.{(i >> 8) & 255}.{i & 255}"
 
 q0 = tuple(float(v) for v in sys.argv[1].split(",")) if len(sys.argv) > 1 and sys.argv[1] else None
+if len(sys.argv) > 2 and sys.argv[2]:
+    try:  # a higher priority keeps the 1 kHz simulation on time on a busy machine, where allowed
+        os.nice(int(sys.argv[2]))
+    except OSError:
+        pass
 with MujocoSimulator() as sim:
     robot = sim.add_robot() if q0 is None else sim.add_robot(initial_q=q0)
     hosts = candidates(random.randrange(16000000))
@@ -242,6 +247,9 @@ class FrankySim:
 
     Args:
         q0: the arm's initial joint positions (7,) [rad], default franky-sim's.
+        nice: change the server's scheduling priority by this (``os.nice``; negative = higher,
+            which needs the privilege — without it the request is ignored). On a busy machine the
+            simulation, a Python loop at 1 kHz, otherwise falls behind real time.
         startup_timeout: how long to wait for the server to come up [s].
 
     Attributes:
@@ -249,7 +257,7 @@ class FrankySim:
         process: the server's ``subprocess.Popen``.
     """
 
-    def __init__(self, *, q0=None, startup_timeout: float = 60.0) -> None:
+    def __init__(self, *, q0=None, nice: int | None = None, startup_timeout: float = 60.0) -> None:
         import select
         import subprocess
         import sys
