@@ -48,8 +48,9 @@ def _import_franky():
 
 
 def franky_chain(urdf: str, *, flange: str = "link8", tool=None, vmax=None, amax=None, jmax=None) -> Chain:
-    """The arm's chain from its URDF text, tip ``flange``, with ``tool`` (flange → tool, 4×4)
-    and the given per-joint limits (None keeps the URDF's).
+    """The arm's chain from its URDF text, tip ``flange``, with ``tool`` (flange → tool, 4×4,
+    after the URDF's own fixed transforms up to the flange) and the given per-joint limits
+    (None keeps the URDF's).
 
     Separate from :class:`FrankyDriver` so that it can be checked without a robot.
     """
@@ -62,7 +63,8 @@ def franky_chain(urdf: str, *, flange: str = "link8", tool=None, vmax=None, amax
                 changes[name] = float(np.broadcast_to(np.asarray(value, dtype=float), (chain.dof,))[i])
         joints.append(dataclasses.replace(j, **changes))
     out = Chain(joints, base=chain.base, tool=chain.tool, name=chain.name)
-    return out if tool is None else out.with_tool(tool)
+    # the URDF's fixed joints up to the flange are the chain's tool already: the user's tool follows them
+    return out if tool is None else out.with_tool(out.tool @ np.asarray(tool, dtype=float))
 
 
 class FrankyDriver:
