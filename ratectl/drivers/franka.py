@@ -25,6 +25,7 @@ loopback.
 from __future__ import annotations
 
 import dataclasses
+import time
 
 import numpy as np
 
@@ -83,6 +84,7 @@ class FrankyDriver:
         realtime: require a real-time kernel (franky's ``RealtimeConfig.Enforce``); the default
             ignores it (a simulator, a development machine).
         stop_timeout: how long :meth:`stop` waits for the arm to come to rest [s].
+        connect_timeout: how long to keep trying to get the robot's first state [s].
         robot: an already connected ``franky.Robot`` to use instead of connecting.
 
     Raises:
@@ -99,6 +101,7 @@ class FrankyDriver:
         hold: float = 0.02,
         realtime: bool = False,
         stop_timeout: float = 1.0,
+        connect_timeout: float = 5.0,
         robot=None,
     ) -> None:
         franky = _import_franky()
@@ -127,6 +130,16 @@ class FrankyDriver:
                 robot = franky.Robot(self.hostname, realtime_config=cfg)
             robot.relative_dynamics_factor = franky.RelativeDynamicsFactor(*map(float, f))
             urdf = robot.model_urdf
+            # the first state: libfranka waits 1 s for a packet; a robot (or simulator) that is
+            # still starting up may need a few tries
+            deadline = time.monotonic() + float(connect_timeout)
+            while True:
+                try:
+                    _ = robot.state
+                    break
+                except Exception:
+                    if time.monotonic() > deadline:
+                        raise
             vmax = np.asarray(robot.joint_velocity_limit.get(), dtype=float) * f[0]
             amax = np.asarray(robot.joint_acceleration_limit.get(), dtype=float) * f[1]
             jmax = np.asarray(robot.joint_jerk_limit.get(), dtype=float) * f[2]
