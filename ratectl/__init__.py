@@ -12,7 +12,9 @@ The package follows the data flow of a control cycle, one subpackage per stage:
 * :mod:`ratectl.control` — the resolved-rate controller, its command, Ruckig smoothing;
 * :mod:`ratectl.paths` — lines, arcs, blended waypoints and their time laws;
 * :mod:`ratectl.planning` — inverse kinematics, joint paths, the path-speed governor;
-* :mod:`ratectl.execution` — :func:`follow` and the :class:`Execution` record;
+* :mod:`ratectl.drivers` — the robot interface: the driver protocol, franky, a scripted arm;
+* :mod:`ratectl.execution` — :func:`follow`, :func:`run` (real time, on a driver) and the
+  :class:`Execution` record;
 * :mod:`ratectl.interop` — MuJoCo and mink;
 * :mod:`ratectl.cli` — the ``ratectl`` command and its demo.
 
@@ -27,6 +29,7 @@ import importlib
 
 from . import errors, kinematics, spatial
 from .errors import (
+    DriverError,
     ImportModelError,
     InputError,
     ModelError,
@@ -55,15 +58,16 @@ _LAZY_ATTRS = {
     "IKResult": "planning",
     "Governor": "planning",
     "follow": "execution",
+    "run": "execution",
     "Execution": "execution",
 }
-_LAZY_MODULES = ("io", "singularity", "solvers", "control", "paths", "planning", "execution", "interop",
-                 "cli")
+_LAZY_MODULES = ("io", "singularity", "solvers", "control", "paths", "planning", "drivers", "execution",
+                 "interop", "cli")
 
 __all__ = [
     "DH", "MDH", "Chain", "Joint", "Limits", "errors", "kinematics", "robots", "spatial",
     "RatectlError", "ModelError", "InputError", "SingularityError", "SolverError",
-    "ImportModelError", *_LAZY_ATTRS, *_LAZY_MODULES,
+    "ImportModelError", "DriverError", *_LAZY_ATTRS, *_LAZY_MODULES,
 ]
 
 

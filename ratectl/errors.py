@@ -14,6 +14,7 @@ __all__ = [
     "SingularityError",
     "SolverError",
     "ImportModelError",
+    "DriverError",
 ]
 
 
@@ -92,3 +93,19 @@ class ImportModelError(ModelError):
     def __init__(self, message: str, *, element: str | None = None) -> None:
         super().__init__(message, field=element)
         self.element = element
+
+
+class DriverError(RatectlError, RuntimeError):
+    """A robot interface (a :mod:`ratectl.drivers` driver) failed: it cannot connect, the
+    robot refused a command, or the connection was lost.
+
+    Attributes:
+        driver: the driver's class name.
+        cause: the underlying exception of the robot's own library (also ``__cause__``), or None.
+    """
+
+    def __init__(self, message: str, *, driver: str | None = None,
+                 cause: BaseException | None = None) -> None:
+        super().__init__(message)
+        self.driver = driver
+        self.cause = cause

@@ -1,8 +1,10 @@
 """The record of an executed motion: :class:`Execution`.
 
-Returned by :func:`ratectl.follow` (kinematic path following) and by the MuJoCo
-simulation; generic on purpose — arrays over the K recorded steps plus metadata —
-so any producer can fill it. Arrays that a producer does not have are ``None``.
+Returned by :func:`ratectl.follow` (kinematic path following), by :func:`ratectl.run`
+(a real-time loop on a robot) and by the MuJoCo simulation; generic on purpose — arrays
+over the K recorded steps plus metadata — so any producer can fill it. Arrays that a
+producer does not have are ``None``. The record is frozen: fields are set once, by
+keyword, and its arrays are read-only.
 """
 
 from __future__ import annotations
@@ -14,8 +16,11 @@ import numpy as np
 
 __all__ = ["Execution"]
 
+_ARRAY_FIELDS = ("t", "q", "qd", "qdd", "poses", "position_error", "orientation_error", "tracking_error",
+                 "sigma_min", "s", "vmax", "amax", "q_measured", "qd_measured", "stamps", "fresh", "periods")
 
-@dataclass(frozen=True, eq=False)
+
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Execution:
     """An executed joint motion and how well it did.
 
@@ -41,6 +46,18 @@ class Execution:
         chain_name: the arm's name; joint_names: its joint names.
         vmax, amax: (n,) joint limits used for checks and plots, or None.
         info: further numbers (e.g. the governor plan, solver names).
+
+    Attributes of a run on a robot (:func:`ratectl.run`; None or defaults elsewhere):
+        q_measured, qd_measured: (K, n) joint positions and velocities as the robot measured
+            them (``q`` is then the same positions; ``qd`` and ``qdd`` are the *commanded*
+            velocity and its change).
+        stamps: (K,) the robot's time stamps of the measured states [s].
+        fresh: (K,) True where the cycle got a new measured state (False: the stamp had not
+            advanced and the previous command was held).
+        periods: (K,) wall-clock time from the previous cycle's start to this one's [s]
+            (the first is the nominal period).
+        rate_hz: the requested loop rate [Hz]; overruns: cycles whose work ended after their
+            deadline.
     """
 
     t: np.ndarray
@@ -65,6 +82,26 @@ class Execution:
     vmax: np.ndarray | None = None
     amax: np.ndarray | None = None
     info: dict = field(default_factory=dict)
+    q_measured: np.ndarray | None = None
+    qd_measured: np.ndarray | None = None
+    stamps: np.ndarray | None = None
+    fresh: np.ndarray | None = None
+    periods: np.ndarray | None = None
+    rate_hz: float = float("nan")
+    overruns: int = 0
+
+    def __post_init__(self) -> None:
+        # read-only arrays; an array the caller still writes to is copied first
+        for name in _ARRAY_FIELDS:
+            a = getattr(self, name)
+            if a is None:
+                continue
+            if not isinstance(a, np.ndarray):
+                a = np.asarray(a)
+            elif a.flags.writeable:
+                a = a.copy()
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
 
     # ------------------------------------------------------------------ summaries
     @property
@@ -105,6 +142,36 @@ class Execution:
             return float("nan")
         return float(np.max(np.abs(self.qdd) / self.amax))
 
+    # ------------------------------------------------------------------ loop timing
+    def period_quantile(self, p: float) -> float:
+        """The p-quantile (0…1) of the loop periods [s] (NaN without timing)."""
+        if self.periods is None or len(self.periods) < 2:
+            return float("nan")
+        return float(np.quantile(self.periods[1:], p))
+
+    @property
+    def period_p50(self) -> float:
+        """Median loop period [s]."""
+        return self.period_quantile(0.5)
+
+    @property
+    def period_p99(self) -> float:
+        """99th percentile of the loop period [s]."""
+        return self.period_quantile(0.99)
+
+    @property
+    def period_max(self) -> float:
+        """Longest loop period [s]."""
+        return float(np.max(self.periods[1:])) if self.periods is not None and len(self.periods) > 1 \
+            else float("nan")
+
+    @property
+    def achieved_rate_hz(self) -> float:
+        """Cycles per second over the run: (K − 1) / (sum of the periods after the first)."""
+        if self.periods is None or len(self.periods) < 2:
+            return float("nan")
+        return float((len(self.periods) - 1) / np.sum(self.periods[1:]))
+
     def status_counts(self) -> dict[str, int]:
         """How many steps had each status."""
         out: dict[str, int] = {}
@@ -126,6 +193,12 @@ class Execution:
         lines.append(f"  max |q̇|/vmax {self.velocity_ratio:.3f}, max |q̈|/amax {self.acceleration_ratio:.3f}")
         if self.sigma_min is not None and np.any(np.isfinite(self.sigma_min)):
             lines.append(f"  min σ_min {np.nanmin(self.sigma_min):.4g}")
+        if self.periods is not None and len(self.periods) > 1:
+            lines.append(f"  loop {self.achieved_rate_hz:.1f} Hz of {self.rate_hz:g} Hz requested; period "
+                         f"p50 {self.period_p50 * 1e3:.3f} ms, p99 {self.period_p99 * 1e3:.3f} ms, "
+                         f"max {self.period_max * 1e3:.3f} ms; {self.overruns} overrun(s)"
+                         + (f", {int(np.count_nonzero(~self.fresh))} stale cycle(s)"
+                            if self.fresh is not None else ""))
         if self.statuses:
             lines.append("  statuses: " + ", ".join(f"{k} {v}" for k, v in self.status_counts().items()))
         return "\n".join(lines)

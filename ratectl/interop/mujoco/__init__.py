@@ -12,7 +12,8 @@
   ``G q̇ ≤ h`` for ratectl's QP.
 * :func:`simulate` closes the loop through MuJoCo's physics and records an
   :class:`~ratectl.execution.Execution` like :func:`ratectl.follow`;
-  :func:`render_frames` renders configurations offscreen.
+  :func:`render_frames` renders configurations offscreen; :class:`MujocoDriver` is a
+  MuJoCo model behind the :class:`ratectl.drivers.Driver` protocol, for :func:`ratectl.run`.
 
 ``mujoco`` and ``mink`` (the ``ratectl[mujoco]`` extra) are imported here only;
 the rest of ratectl never needs them.
@@ -27,10 +28,12 @@ rotation, so ratectl's Jacobian is ``J = blockdiag(R, R) · ᴮJ``.
 
 from __future__ import annotations
 
+from .driver import MujocoDriver
 from .export import compile_mjcf, to_mjcf
 from .kinematics import MinkKinematics, mujoco_fk_jacobian
 from .limits import MinkLimitedSolver, geom_distance, mink_inequalities
 from .simulation import ACTUATIONS, SimulationLog, render_frames, simulate
 
 __all__ = ["to_mjcf", "compile_mjcf", "mujoco_fk_jacobian", "MinkKinematics", "mink_inequalities",
-           "MinkLimitedSolver", "geom_distance", "simulate", "SimulationLog", "render_frames", "ACTUATIONS"]
+           "MinkLimitedSolver", "geom_distance", "simulate", "SimulationLog", "render_frames", "ACTUATIONS",
+           "MujocoDriver"]

@@ -1,0 +1,46 @@
+"""Drivers: the robot as the control loop sees it.
+
+* :mod:`~ratectl.drivers.base` — the :class:`Driver` protocol (``chain``, ``read()`` →
+  :class:`RobotState`, ``command(qd)``, ``stop()``) and the rules a driver keeps;
+* :mod:`~ratectl.drivers.scripted` — :class:`ScriptedDriver`, a kinematic arm with
+  injectable faults (for tests, and the template for a new driver);
+* :mod:`~ratectl.drivers.franka` — :class:`FrankyDriver`, Franka arms over franky
+  (``franky`` is imported only when one is made);
+* ``MujocoDriver`` — a MuJoCo model stepping its physics. It lives in
+  :mod:`ratectl.interop.mujoco.driver` (MuJoCo interop sits above this layer) and is
+  re-exported here lazily: ``rc.drivers.MujocoDriver`` imports it, and ``mujoco``, on
+  first use.
+
+:func:`ratectl.run` drives any of them.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from .base import Driver, RobotState
+from .franka import FrankyDriver, FrankySim, franky_chain
+from .scripted import ScriptedDriver
+
+__all__ = [
+    "Driver",
+    "RobotState",
+    "ScriptedDriver",
+    "FrankyDriver",
+    "FrankySim",
+    "franky_chain",
+    "MujocoDriver",
+]
+
+
+def __getattr__(name: str):
+    # a re-export from the interop layer, resolved on first use (no import at load time)
+    if name == "MujocoDriver":
+        value = importlib.import_module("ratectl.interop.mujoco.driver").MujocoDriver
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'ratectl.drivers' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,167 @@
+"""A scripted kinematic robot for tests: :class:`ScriptedDriver`.
+
+The arm integrates the commanded joint velocity exactly over wall-clock time,
+
+    q(t) = q_k + q̇_k · (t − t_k)          (t_k: time of the last command q̇_k),
+
+and serves it through the :class:`~ratectl.drivers.Driver` protocol, with faults that can
+be switched on at given times: slow reads, dropped samples, a frozen (stale) server, NaN
+in the measurement, and a connection that dies. It is also the shortest complete driver —
+a template for writing one for another robot.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..errors import DriverError, InputError
+from ..model import Chain
+from .base import RobotState
+
+__all__ = ["ScriptedDriver"]
+
+
+class ScriptedDriver:
+    """A kinematic arm that does what it is told, with injectable faults.
+
+    Times below are measured from the driver's first ``read()`` or ``command()`` [s].
+
+    Args:
+        chain: the arm. q0: (n,) initial joint positions.
+        strict: refuse (raise :class:`~ratectl.errors.DriverError`) a command faster than the
+            chain's vmax or not finite — as real robots do.
+        read_delay: every ``read()`` takes this long [s] (a slow link; it is slept).
+        drop: probability that a ``read()`` returns the previous sample again, same stamp
+            (a dropped sample); drawn from ``seed``.
+        stale_after: from this time on the server freezes: ``read()`` returns the same sample
+            forever (its stamp no longer advances); the arm keeps moving unseen.
+        nan_after: from this time on the measured q contains NaN.
+        fail_after: from this time on ``read()`` and ``command()`` raise a bare
+            ``ConnectionResetError`` — deliberately *not* a ratectl error, as a careless driver
+            would, so that tests can check the loop contains it.
+        seed: seed of the drop draws.
+
+    Attributes:
+        commands: list of ``(t, qd)`` of every accepted command.
+        stops: how many times :meth:`stop` was called.
+    """
+
+    def __init__(
+        self,
+        chain: Chain,
+        q0,
+        *,
+        strict: bool = True,
+        read_delay: float = 0.0,
+        drop: float = 0.0,
+        stale_after: float | None = None,
+        nan_after: float | None = None,
+        fail_after: float | None = None,
+        seed: int = 0,
+    ) -> None:
+        if not isinstance(chain, Chain):
+            raise InputError(
+                f"chain must be a ratectl.Chain, got {type(chain).__name__}", argument="chain", value=chain
+            )
+        self._chain = chain
+        q = chain.check_q(q0, name="q0").astype(float).reshape(-1).copy()
+        if q.shape != (chain.dof,):
+            raise InputError(f"q0 must have shape ({chain.dof},), got {q.shape}", argument="q0", value=q0)
+        if not 0.0 <= drop <= 1.0:
+            raise InputError(
+                f"drop must be a probability in [0, 1], got {drop!r}", argument="drop", value=drop
+            )
+        self._q = q
+        self._qd = np.zeros(chain.dof)
+        self._t_cmd: float | None = None
+        self._t0: float | None = None
+        self.strict = bool(strict)
+        self.read_delay = float(read_delay)
+        self.drop = float(drop)
+        self.stale_after = math.inf if stale_after is None else float(stale_after)
+        self.nan_after = math.inf if nan_after is None else float(nan_after)
+        self.fail_after = math.inf if fail_after is None else float(fail_after)
+        self._rng = np.random.default_rng(seed)
+        self._last: RobotState | None = None
+        self.commands: list[tuple[float, np.ndarray]] = []
+        self.stops = 0
+
+    @property
+    def chain(self) -> Chain:
+        return self._chain
+
+    def _now(self) -> float:
+        now = time.monotonic()
+        if self._t0 is None:
+            self._t0 = now
+        return now - self._t0
+
+    def _advance(self, t: float) -> None:
+        """Integrate the commanded velocity up to time t."""
+        if self._t_cmd is not None and t > self._t_cmd:
+            self._q = self._q + self._qd * (t - self._t_cmd)
+        self._t_cmd = t
+
+    def read(self) -> RobotState:
+        """The arm's state now (see the class docstring for the faults)."""
+        if self.read_delay > 0.0:
+            time.sleep(self.read_delay)
+        t = self._now()
+        if t >= self.fail_after:
+            raise ConnectionResetError("scripted connection reset by peer")
+        self._advance(t)
+        last = self._last
+        if last is not None and (
+            t >= self.stale_after or (self.drop > 0.0 and self._rng.random() < self.drop)
+        ):
+            return last
+        q = self._q.copy()
+        if t >= self.nan_after:
+            q[0] = math.nan
+        self._last = RobotState(stamp=t, q=q, qd=self._qd)
+        return self._last
+
+    def command(self, qd) -> None:
+        """Move at ``qd`` (n,) from now on."""
+        t = self._now()
+        if t >= self.fail_after:
+            raise ConnectionResetError("scripted connection reset by peer")
+        v = np.asarray(qd, dtype=float).reshape(-1)
+        if v.shape != (self._chain.dof,):
+            raise InputError(
+                f"qd must have shape ({self._chain.dof},), got {v.shape}", argument="qd", value=qd
+            )
+        if self.strict:
+            if not np.all(np.isfinite(v)):
+                raise DriverError("refused a non-finite joint velocity command", driver="ScriptedDriver")
+            over = np.abs(v) > self._chain.vmax * (1.0 + 1e-9)
+            if over.any():
+                j = int(np.flatnonzero(over)[0])
+                raise DriverError(
+                    f"refused joint velocity {v[j]:.6g} on joint {j + 1}: exceeds vmax "
+                    f"{self._chain.vmax[j]:.6g}",
+                    driver="ScriptedDriver",
+                )
+        self._advance(t)
+        self._qd = v.copy()
+        self.commands.append((t, self._qd))
+
+    def stop(self) -> None:
+        """Stop at once (a kinematic arm has no dynamics to respect)."""
+        self.stops += 1
+        if self._t0 is not None:
+            self._advance(self._now())
+        self._qd = np.zeros(self._chain.dof)
+
+    @property
+    def q(self) -> np.ndarray:
+        """The arm's true joint positions now, seen or not (for tests)."""
+        if self._t0 is not None:
+            self._advance(self._now())
+        return self._q.copy()
+
+    def __repr__(self) -> str:
+        return f"ScriptedDriver({self._chain.name!r}, commands={len(self.commands)}, stops={self.stops})"
