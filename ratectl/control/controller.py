@@ -34,12 +34,16 @@ import numpy as np
 
 from .. import solvers
 from ..errors import InputError, RatectlError, SingularityError
-from ..model.limits import Limits, braking_speed, stopping_distance
+from ..model.limits import Limits, braking_speed, braking_speed_discrete, stopping_distance
 from ..spatial import pose_error_into
 from .command import _RANK, STATUSES, Command, make_command
 from .smoothing import VelocityFilter
 
 __all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver"]
+
+_BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
+_NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
+
 
 def _float_array(value, name: str, what: str) -> np.ndarray:
     try:
@@ -115,23 +119,24 @@ class ResolvedRateController:
             self._has_v = bool(np.any(np.isfinite(lim.vmax)))
             self._has_a = bool(np.any(np.isfinite(lim.amax)))
             self._has_p = bool(np.any(np.isfinite(lim.lower) | np.isfinite(lim.upper)))
-            big = 1e300
+            big = _BIG
             self._inv_vmax = np.where(np.isfinite(lim.vmax), 1.0 / lim.vmax, 0.0)
             self._inv_amax = np.where(np.isfinite(lim.amax), 1.0 / lim.amax, 0.0)
-            self._amax_f = np.where(np.isfinite(lim.amax), lim.amax, big)
-            lo = np.where(np.isfinite(lim.lower), lim.lower, -big)
-            hi = np.where(np.isfinite(lim.upper), lim.upper, big)
-            self._plo, self._phi = lo, hi
-            self._pmid = np.where(np.isfinite(lim.lower) & np.isfinite(lim.upper), 0.5 * (lo + hi), 0.0)
-            self._phalf = np.where(self._pmid == 0.0, np.maximum(np.abs(lo), np.abs(hi)), 0.5 * (hi - lo))
+            # an absent acceleration limit: a joint can stop in one period, so its position
+            # limit is enforced by the velocity limit alone (the braking speed is d/dt)
+            self._amax_f = np.where(np.isfinite(lim.amax), lim.amax, _NO_AMAX)
+            self._plo = np.where(np.isfinite(lim.lower), lim.lower, -big)
+            self._phi = np.where(np.isfinite(lim.upper), lim.upper, big)
             vf = np.where(np.isfinite(lim.vmax), lim.vmax, big)
-            # distance within which a joint at full speed may need to brake
+            # distance within which a joint at full speed may need to brake (per side, so a
+            # one-sided limit is watched too): v²/(2a), 0 without an acceleration limit
             fin = np.isfinite(lim.vmax) & np.isfinite(lim.amax)
             vfin = np.where(fin, vf, 0.0)
-            self._pbrake = np.where(fin, vfin**2 / (2.0 * np.where(fin, self._amax_f, 1.0)), big)
+            self._pbrake = np.where(fin, vfin**2 / (2.0 * np.where(fin, self._amax_f, 1.0)),
+                                    np.where(np.isfinite(lim.vmax), 0.0, big))
             self._vf = vf
-            self._pthresh = None
-            self._pthresh_dt = None
+            self._proom = None
+            self._proom_dt = None
         else:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
@@ -165,8 +170,9 @@ class ResolvedRateController:
         for name in ("vmax", "amax", "jmax"):
             a = getattr(c, name)
             if not np.all(np.isfinite(a)):
-                raise InputError(f"smoothing=True needs finite {name} on every joint of {c.name!r}; set "
-                                 "them in the model or pass a VelocityFilter", argument="smoothing",
+                raise InputError(f"smoothing=True needs finite {name} on every joint of {c.name!r}; "
+                                 f"give them with chain.with_limits({name}=...) (or the importer's "
+                                 f"{name}= keyword), or pass a VelocityFilter", argument="smoothing",
                                  value=a)
 
     # ------------------------------------------------------------------ state
@@ -402,26 +408,26 @@ class ResolvedRateController:
             cyc.qd = qd
 
     def _near_position_limit(self, q, dt) -> bool:
-        """True if some joint is close enough to a position limit that it may need to brake."""
+        """True if some joint is close enough to one of its position limits that it may
+        need to brake: the room to the limit is below the braking distance plus one period
+        at vmax (each side on its own, so a one-sided limit counts)."""
         if not self._has_p:
             return False
-        if self._pthresh_dt != dt:  # |q − mid| beyond this: a joint may need to brake
-            self._pthresh = self._phalf - self._pbrake - self._vf * dt
-            self._pthresh_dt = dt
-        return bool((np.abs(q - self._pmid) > self._pthresh).any())
+        if self._proom_dt != dt:
+            self._proom = self._pbrake + self._vf * dt
+            self._proom_dt = dt
+        room = self._proom
+        return bool(((self._phi - q) < room).any() or ((q - self._plo) < room).any())
 
     def _limit_position(self, cyc: _Cycle, q, dt) -> None:
         """Clip each joint's q̇ to the speed from which it can still stop before its limits."""
-        up = self._phi - q
-        lo = self._plo - q
-        amax = self._amax_f
-        # discrete braking: a v that can still stop within the room d at amax in whole
-        # steps of dt, v = a dt (√(1/4 + 2d/(a dt²)) − 1) (one step of margin)
-        adt = amax * dt
-        brake_up = adt * np.maximum(np.sqrt(0.25 + 2.0 * np.maximum(up, 0.0) / (adt * dt)) - 1.0, 0.0)
-        brake_lo = adt * np.maximum(np.sqrt(0.25 + 2.0 * np.maximum(-lo, 0.0) / (adt * dt)) - 1.0, 0.0)
-        hi_v = np.minimum(up / dt, brake_up)
-        lo_v = np.maximum(lo / dt, -brake_lo)
+        adt = self._amax_f * dt
+        inv_adt2, inv_dt = 1.0 / (adt * dt), 1.0 / dt
+        # the speed from which the joint still stops before the limit, braking by at most
+        # amax·dt per period (braking_speed_discrete: the discrete √(2·amax·d), ≥ d/dt; with
+        # no acceleration limit exactly d/dt, the velocity limit then bounds the approach)
+        hi_v = braking_speed_discrete(self._phi - q, adt, inv_adt2, inv_dt)
+        lo_v = -braking_speed_discrete(q - self._plo, adt, inv_adt2, inv_dt)
         # a joint found beyond a limit (a disturbance, or a start outside the range) is
         # brought back no faster than vmax and no harder than amax from the previous q̇
         hi_v = np.maximum(hi_v, np.maximum(-self._vf, self._qd - adt))
