@@ -34,12 +34,38 @@ import numpy as np
 
 from .. import solvers
 from ..errors import InputError, RatectlError, SingularityError
-from ..model.limits import Limits, braking_speed, stopping_distance
+from ..model.limits import Limits, braking_speed, braking_speed_discrete, stopping_distance
 from ..spatial import pose_error_into
-from .command import _RANK, STATUSES, Command, _new_command
+from .command import _RANK, STATUSES, Command, make_command
 from .smoothing import VelocityFilter
 
 __all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver"]
+
+_BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
+_NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
+
+
+def _float_array(value, name: str, what: str) -> np.ndarray:
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be {what}, got {value!r}", argument=name, value=value) from None
+
+
+class _Cycle:
+    """The working state of one control cycle, passed from stage to stage."""
+
+    __slots__ = ("J", "e", "ep", "eo", "xi", "target", "res", "qd", "qdd", "q_next", "flags", "reasons",
+                 "active", "scale", "smin", "braking")
+
+    def __init__(self) -> None:
+        self.flags: list[str] = []
+        self.reasons: list[str] = []
+        self.active: list[str] = []
+        self.braking = None
+        self.scale = 1.0
+        self.smin = math.nan
+
 
 def default_solver():
     """The controller's default inverse-velocity solver: ``rc.solvers.AdaptiveDLS()``."""
@@ -93,23 +119,24 @@ class ResolvedRateController:
             self._has_v = bool(np.any(np.isfinite(lim.vmax)))
             self._has_a = bool(np.any(np.isfinite(lim.amax)))
             self._has_p = bool(np.any(np.isfinite(lim.lower) | np.isfinite(lim.upper)))
-            big = 1e300
+            big = _BIG
             self._inv_vmax = np.where(np.isfinite(lim.vmax), 1.0 / lim.vmax, 0.0)
             self._inv_amax = np.where(np.isfinite(lim.amax), 1.0 / lim.amax, 0.0)
-            self._amax_f = np.where(np.isfinite(lim.amax), lim.amax, big)
-            lo = np.where(np.isfinite(lim.lower), lim.lower, -big)
-            hi = np.where(np.isfinite(lim.upper), lim.upper, big)
-            self._plo, self._phi = lo, hi
-            self._pmid = np.where(np.isfinite(lim.lower) & np.isfinite(lim.upper), 0.5 * (lo + hi), 0.0)
-            self._phalf = np.where(self._pmid == 0.0, np.maximum(np.abs(lo), np.abs(hi)), 0.5 * (hi - lo))
+            # an absent acceleration limit: a joint can stop in one period, so its position
+            # limit is enforced by the velocity limit alone (the braking speed is d/dt)
+            self._amax_f = np.where(np.isfinite(lim.amax), lim.amax, _NO_AMAX)
+            self._plo = np.where(np.isfinite(lim.lower), lim.lower, -big)
+            self._phi = np.where(np.isfinite(lim.upper), lim.upper, big)
             vf = np.where(np.isfinite(lim.vmax), lim.vmax, big)
-            # distance within which a joint at full speed may need to brake
+            # distance within which a joint at full speed may need to brake (per side, so a
+            # one-sided limit is watched too): v²/(2a), 0 without an acceleration limit
             fin = np.isfinite(lim.vmax) & np.isfinite(lim.amax)
             vfin = np.where(fin, vf, 0.0)
-            self._pbrake = np.where(fin, vfin**2 / (2.0 * np.where(fin, self._amax_f, 1.0)), big)
+            self._pbrake = np.where(fin, vfin**2 / (2.0 * np.where(fin, self._amax_f, 1.0)),
+                                    np.where(np.isfinite(lim.vmax), 0.0, big))
             self._vf = vf
-            self._pthresh = None
-            self._pthresh_dt = None
+            self._proom = None
+            self._proom_dt = None
         else:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
@@ -143,8 +170,9 @@ class ResolvedRateController:
         for name in ("vmax", "amax", "jmax"):
             a = getattr(c, name)
             if not np.all(np.isfinite(a)):
-                raise InputError(f"smoothing=True needs finite {name} on every joint of {c.name!r}; set "
-                                 "them in the model or pass a VelocityFilter", argument="smoothing",
+                raise InputError(f"smoothing=True needs finite {name} on every joint of {c.name!r}; "
+                                 f"give them with chain.with_limits({name}=...) (or the importer's "
+                                 f"{name}= keyword), or pass a VelocityFilter", argument="smoothing",
                                  value=a)
 
     # ------------------------------------------------------------------ state
@@ -174,7 +202,9 @@ class ResolvedRateController:
 
     # ------------------------------------------------------------------ the cycle
     def step(self, q, *, target=None, twist=None, dt, qd_ff=None, qdd_ff=None, stamp=None) -> Command:
-        """One control cycle (see the module docstring).
+        """One control cycle (see the module docstring): the stages
+        :meth:`_validate` → :meth:`_halt_reason` → :meth:`_error` → :meth:`_solve` →
+        :meth:`_limit` → :meth:`_smooth` → :meth:`_command`.
 
         Args:
             q: measured joint positions (n,).
@@ -189,8 +219,30 @@ class ResolvedRateController:
             stamp: when the target was produced, on the controller clock ``ctrl.time`` [s];
                 older than ``timeout`` → halt (stale target).
         """
+        q, target, twist, dt, qd_ff = self._validate(q, target, twist, dt, qd_ff)
+        halt = self._halt_reason(q, target, twist, dt, qd_ff, stamp)
+        if halt is not None:
+            return halt
+        cyc = self._error(q, target, twist)
+        halt = self._solve(cyc, q, dt, qd_ff)
+        if halt is not None:
+            return halt
+        self._limit(cyc, q, dt)
+        if (not cyc.flags and target is not None and qd_ff is None
+                and (twist is None or not twist.any()) and cyc.ep <= self.position_tolerance
+                and cyc.eo <= self.orientation_tolerance):
+            cyc.flags.append("target-reached")
+        halt = self._smooth(cyc, q, dt, qdd_ff)
+        if halt is not None:
+            return halt
+        return self._command(cyc, q, dt)
+
+    # --- stage 1: validation (shapes raise, values halt)
+    def _validate(self, q, target, twist, dt, qd_ff):
+        """Shapes and types: returns ``(q, target, twist, dt, qd_ff)`` as float arrays
+        (the caller's arrays are not copied when already float64) or raises
+        :class:`~ratectl.errors.InputError`. Values (NaN, inf) are not checked here."""
         n = self._n
-        # --- validation: shapes raise, values halt
         if type(q) is not np.ndarray or q.dtype != np.float64:
             try:
                 q = np.asarray(q, dtype=float)
@@ -204,22 +256,26 @@ class ResolvedRateController:
             raise InputError(f"dt must be a number [s], got {dt!r}", argument="dt", value=dt) from None
         if target is not None:
             if type(target) is not np.ndarray or target.dtype != np.float64:
-                target = np.asarray(target, dtype=float)
+                target = _float_array(target, "target", "a 4x4 pose")
             if target.shape != (4, 4):
                 raise InputError(f"target must be a 4x4 pose, got shape {target.shape}",
                                  argument="target", value=target)
         if twist is not None:
             if type(twist) is not np.ndarray or twist.dtype != np.float64:
-                twist = np.asarray(twist, dtype=float)
+                twist = _float_array(twist, "twist", "6 numbers [v; ω]")
             if twist.shape != (6,):
                 raise InputError(f"twist must have shape (6,) [v; ω], got {twist.shape}",
                                  argument="twist", value=twist)
         if qd_ff is not None:
-            qd_ff = np.asarray(qd_ff, dtype=float)
+            qd_ff = _float_array(qd_ff, "qd_ff", f"{n} numbers")
             if qd_ff.shape != (n,):
                 raise InputError(f"qd_ff must have shape ({n},), got {qd_ff.shape}",
                                  argument="qd_ff", value=qd_ff)
+        return q, target, twist, dt, qd_ff
 
+    def _halt_reason(self, q, target, twist, dt, qd_ff, stamp) -> Command | None:
+        """Values that bring a safe halt (non-finite inputs latch it, a stale target does
+        not): returns the halt's :class:`Command`, or None when the cycle may proceed."""
         if not (dt > 0.0 and math.isfinite(dt)):
             self._latched = self._latched or f"non-finite or non-positive dt ({dt!r})"
             return self._halt(q, self._dt_last or 1e-3, self._latched)
@@ -242,146 +298,190 @@ class ResolvedRateController:
             age = self.time - float(stamp)
             if not age <= self.timeout:
                 return self._halt(q, dt, f"stale target: {age:.3g} s old > timeout {self.timeout:.3g} s")
+        return None
 
-        # --- resolved rate
+    # --- stage 2: the pose error and the twist to resolve
+    def _error(self, q, target, twist) -> _Cycle:
+        """fk and J at q, the pose error e = [p_d − p; log(R_d Rᵀ)] and the twist
+        ξ = ξ_ff + K e to resolve; returns the cycle's working state."""
+        cyc = _Cycle()
         T, J = self.chain.fk_jacobian(q)
-        e = self._e
+        cyc.J = J
+        e = cyc.e = np.zeros(6)
+        cyc.target = target is not None
         if target is not None:
-            ep, eo = pose_error_into(e, target, T)
+            cyc.ep, cyc.eo = pose_error_into(e, target, T)
             xi = self.gain * e
             if twist is not None:
                 xi += twist
         else:
-            e[:] = 0.0
-            ep = eo = 0.0
+            cyc.ep = cyc.eo = 0.0
             xi = twist.copy() if twist is not None else np.zeros(6)
+        cyc.xi = xi
+        return cyc
+
+    # --- stage 3: the inverse-velocity solve
+    def _solve(self, cyc: _Cycle, q, dt, qd_ff) -> Command | None:
+        """q̇ = q̇_ff + solver(J, ξ); a solver failure or a non-finite answer halts (returns
+        the halt's Command), otherwise fills ``cyc.qd``, ``cyc.res`` and the status lists."""
         if qd_ff is None:
             q_s, qd_prev_s = q, self._qd
         else:  # the solver resolves the correction on top of q̇_ff: shift its bounds accordingly
             q_s, qd_prev_s = q + qd_ff * dt, self._qd - qd_ff
         try:
-            res = self.solver.solve(J, xi, limits=self.limits, q=q_s, qd_prev=qd_prev_s, dt=dt)
+            res = self.solver.solve(cyc.J, cyc.xi, limits=self.limits, q=q_s, qd_prev=qd_prev_s, dt=dt)
         except SingularityError as err:
             return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
-                              error=e, ep=ep, eo=eo)
+                              error=cyc.e, ep=cyc.ep, eo=cyc.eo)
         except (RatectlError, np.linalg.LinAlgError) as err:
-            return self._halt(q, dt, f"solver failed: {err}", error=e, ep=ep, eo=eo)
+            return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
         qd = res.qd if qd_ff is None else res.qd + qd_ff
         if not math.isfinite(qd.sum()):
-            return self._halt(q, dt, "solver returned a non-finite q̇", error=e, ep=ep, eo=eo)
-
-        flags = []
-        reasons = []
-        active = list(res.limits_active)
-        scale = float(res.velocity_scale)
-        smin = float(res.sigma_min)
+            return self._halt(q, dt, "solver returned a non-finite q̇", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
+        cyc.res = res
+        cyc.qd = qd
+        cyc.active = list(res.limits_active)
+        cyc.scale = float(res.velocity_scale)
+        cyc.smin = float(res.sigma_min)
         if res.velocity_policy != "none":
-            flags.append("velocity-scaled")
-        # --- limits
+            cyc.flags.append("velocity-scaled")
+        return None
+
+    # --- stage 4: the limits
+    def _limit(self, cyc: _Cycle, q, dt) -> None:
+        """Velocity, acceleration and position limits on ``cyc.qd`` (in that order; see the
+        module docstring), or only the report of them for a solver that enforces them."""
         enforcing = getattr(self.solver, "enforces_limits", False)
         if enforcing:
             # the solver (the QP, possibly with extra rows such as collision limits) already
             # bounds q̇ by the velocity, position and acceleration limits; limiting again here
             # would move q̇ off its optimum and could break its extra rows
-            qd, scale = self._report_solver_limits(res, qd, smin, flags, reasons, scale)
-        elif self._has_v:
-            r = float((np.abs(qd) * self._inv_vmax).max())
-            if r > 1.0:
-                qd = qd / r
-                scale /= r
-                flags.append("velocity-scaled")
-                if "velocity" not in active:
-                    active.append("velocity")
-        if "velocity-scaled" in flags:
-            reasons.append(f"q̇ scaled by {scale:.3g} to respect vmax")
-            if smin < self.singular_sigma:
-                flags.insert(0, "singular")
-                reasons[-1] = (f"near a singularity (σ_min = {smin:.3g}) the solver needs "
-                               f"{1 / scale:.3g}× vmax; q̇ scaled by {scale:.3g}")
-        if self._has_a and self.filter is None and not enforcing:
-            dq = qd - self._qd
-            r = float((np.abs(dq) * self._inv_amax).max()) / dt
-            if r > 1.0:
-                qd = self._qd + dq / r
-                flags.append("acceleration-limited")
-                reasons.append(f"change of q̇ scaled by {1 / r:.3g} to respect amax")
-                active.append("acceleration")
-                if self._has_v:  # the velocity limit wins if the previous q̇ was above it
-                    rv = float((np.abs(qd) * self._inv_vmax).max())
-                    if rv > 1.0:
-                        qd = qd / rv
-        if self._has_p and (not enforcing or self.filter is not None):
-            if self._pthresh_dt != dt:  # |q − mid| beyond this: a joint may need to brake
-                self._pthresh = self._phalf - self._pbrake - self._vf * dt
-                self._pthresh_dt = dt
-            near = (np.abs(q - self._pmid) > self._pthresh).any()
+            cyc.qd, cyc.scale = self._report_solver_limits(cyc.res, cyc.qd, cyc.smin, cyc.flags,
+                                                           cyc.reasons, cyc.scale)
         else:
-            near = False
+            self._limit_velocity(cyc)
+        if "velocity-scaled" in cyc.flags:
+            cyc.reasons.append(f"q̇ scaled by {cyc.scale:.3g} to respect vmax")
+            if cyc.smin < self.singular_sigma:
+                cyc.flags.insert(0, "singular")
+                cyc.reasons[-1] = (f"near a singularity (σ_min = {cyc.smin:.3g}) the solver needs "
+                                   f"{1 / cyc.scale:.3g}× vmax; q̇ scaled by {cyc.scale:.3g}")
+        if self._has_a and self.filter is None and not enforcing:
+            self._limit_acceleration(cyc, dt)
+        near = self._near_position_limit(q, dt) if (not enforcing or self.filter is not None) else False
         if near and not enforcing:
-            up = self._phi - q
-            lo = self._plo - q
-            amax = self._amax_f
-            # discrete braking: a v that can still stop within the room d at amax in whole
-            # steps of dt, v = a dt (√(1/4 + 2d/(a dt²)) − 1) (one step of margin)
-            adt = amax * dt
-            brake_up = adt * np.maximum(np.sqrt(0.25 + 2.0 * np.maximum(up, 0.0) / (adt * dt)) - 1.0, 0.0)
-            brake_lo = adt * np.maximum(np.sqrt(0.25 + 2.0 * np.maximum(-lo, 0.0) / (adt * dt)) - 1.0, 0.0)
-            hi_v = np.minimum(up / dt, brake_up)
-            lo_v = np.maximum(lo / dt, -brake_lo)
-            # a joint found beyond a limit (a disturbance, or a start outside the range) is
-            # brought back no faster than vmax and no harder than amax from the previous q̇
-            hi_v = np.maximum(hi_v, np.maximum(-self._vf, self._qd - adt))
-            lo_v = np.minimum(lo_v, np.minimum(self._vf, self._qd + adt))
-            clipped = np.clip(qd, lo_v, hi_v)
-            changed = clipped != qd
-            if changed.any():
-                joints = np.flatnonzero(changed)
-                qd = clipped
-                flags.insert(0, "joint-limit")
-                reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
-                active.append("position")
-        braking = None
+            self._limit_position(cyc, q, dt)
         if self.filter is not None and near:
-            qd, braking = self._jerk_limited_position_guard(q, qd, dt, flags, reasons, active)
-        if res.damping > 0.0 and not (enforcing and smin >= self.singular_sigma):
+            cyc.qd, cyc.braking = self._jerk_limited_position_guard(q, cyc.qd, dt, cyc.flags,
+                                                                    cyc.reasons, cyc.active)
+        res = cyc.res
+        if res.damping > 0.0 and not (enforcing and cyc.smin >= self.singular_sigma):
             # a QP's λ is a constant regulariser: it is reported only near a singularity
-            flags.append("damped")
-            reasons.append(f"damped least squares, λ = {res.damping:.3g} (σ_min = {smin:.3g})")
-        if (not flags and target is not None and qd_ff is None
-                and (twist is None or not twist.any()) and ep <= self.position_tolerance
-                and eo <= self.orientation_tolerance):
-            flags.append("target-reached")
+            cyc.flags.append("damped")
+            cyc.reasons.append(f"damped least squares, λ = {res.damping:.3g} (σ_min = {cyc.smin:.3g})")
 
-        # --- smoothing and integration
+    def _limit_velocity(self, cyc: _Cycle) -> None:
+        """Uniform scaling of q̇ into |q̇_i| ≤ vmax_i (keeps the direction of motion)."""
+        if not self._has_v:
+            return
+        r = float((np.abs(cyc.qd) * self._inv_vmax).max())
+        if r > 1.0:
+            cyc.qd = cyc.qd / r
+            cyc.scale /= r
+            cyc.flags.append("velocity-scaled")
+            if "velocity" not in cyc.active:
+                cyc.active.append("velocity")
+
+    def _limit_acceleration(self, cyc: _Cycle, dt) -> None:
+        """The change of q̇ from the previous cycle scaled uniformly into |Δq̇_i| ≤ amax_i dt."""
+        dq = cyc.qd - self._qd
+        r = float((np.abs(dq) * self._inv_amax).max()) / dt
+        if r > 1.0:
+            qd = self._qd + dq / r
+            cyc.flags.append("acceleration-limited")
+            cyc.reasons.append(f"change of q̇ scaled by {1 / r:.3g} to respect amax")
+            cyc.active.append("acceleration")
+            if self._has_v:  # the velocity limit wins if the previous q̇ was above it
+                rv = float((np.abs(qd) * self._inv_vmax).max())
+                if rv > 1.0:
+                    qd = qd / rv
+            cyc.qd = qd
+
+    def _near_position_limit(self, q, dt) -> bool:
+        """True if some joint is close enough to one of its position limits that it may
+        need to brake: the room to the limit is below the braking distance plus one period
+        at vmax (each side on its own, so a one-sided limit counts)."""
+        if not self._has_p:
+            return False
+        if self._proom_dt != dt:
+            self._proom = self._pbrake + self._vf * dt
+            self._proom_dt = dt
+        room = self._proom
+        return bool(((self._phi - q) < room).any() or ((q - self._plo) < room).any())
+
+    def _limit_position(self, cyc: _Cycle, q, dt) -> None:
+        """Clip each joint's q̇ to the speed from which it can still stop before its limits."""
+        adt = self._amax_f * dt
+        inv_adt2, inv_dt = 1.0 / (adt * dt), 1.0 / dt
+        # the speed from which the joint still stops before the limit, braking by at most
+        # amax·dt per period (braking_speed_discrete: the discrete √(2·amax·d), ≥ d/dt; with
+        # no acceleration limit exactly d/dt, the velocity limit then bounds the approach)
+        hi_v = braking_speed_discrete(self._phi - q, adt, inv_adt2, inv_dt)
+        lo_v = -braking_speed_discrete(q - self._plo, adt, inv_adt2, inv_dt)
+        # a joint found beyond a limit (a disturbance, or a start outside the range) is
+        # brought back no faster than vmax and no harder than amax from the previous q̇
+        hi_v = np.maximum(hi_v, np.maximum(-self._vf, self._qd - adt))
+        lo_v = np.minimum(lo_v, np.minimum(self._vf, self._qd + adt))
+        clipped = np.clip(cyc.qd, lo_v, hi_v)
+        changed = clipped != cyc.qd
+        if changed.any():
+            joints = np.flatnonzero(changed)
+            cyc.qd = clipped
+            cyc.flags.insert(0, "joint-limit")
+            cyc.reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
+            cyc.active.append("position")
+
+    # --- stage 5: smoothing and integration
+    def _smooth(self, cyc: _Cycle, q, dt, qdd_ff) -> Command | None:
+        """The Ruckig filter (if any) turns ``cyc.qd`` into a jerk-limited motion and gives
+        its exact integral; without it q_next = q + q̇ dt, q̈ = (q̇ − q̇_prev)/dt."""
         if self.filter is not None:
             if abs(self.filter.dt - dt) > 1e-15:
                 self.filter.dt = dt
             try:
-                q_next, qd, qdd = self.filter.update(q, qd, qdd_ff, independent=braking)
+                cyc.q_next, cyc.qd, cyc.qdd = self.filter.update(q, cyc.qd, qdd_ff, independent=cyc.braking)
             except RatectlError as err:
-                return self._halt(q, dt, f"smoothing failed: {err}", error=e, ep=ep, eo=eo)
+                return self._halt(q, dt, f"smoothing failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
         else:
-            q_next = q + qd * dt
-            qdd = (qd - self._qd) / dt
-        self._qd = qd
-        self._qdd = qdd
-        self._q_last = q
+            cyc.q_next = q + cyc.qd * dt
+            cyc.qdd = (cyc.qd - self._qd) / dt
+        return None
+
+    # --- stage 6: the command
+    def _command(self, cyc: _Cycle, q, dt) -> Command:
+        """Update the controller state and return the cycle's frozen :class:`Command`
+        (its arrays are read-only and not shared with the controller's state)."""
+        qd = cyc.qd
+        self._qd = qd.copy()
+        self._qdd = cyc.qdd
+        self._q_last = q.copy()
         t0 = self.time
         self.time = t0 + dt
+        flags = cyc.flags
         if flags:
             status = min(flags, key=_RANK.__getitem__)
             flags = tuple(dict.fromkeys(flags))
         else:
             status, flags = "regular", ("regular",)
-        # frozen dataclass, filled directly (its generated __init__ costs ~4 µs per cycle)
-        cmd = _new_command(Command)
-        cmd.__dict__.update(qd=qd, q_next=q_next, qdd=qdd, status=status, flags=flags,
-                            reason="; ".join(reasons), error=e.copy(), position_error=ep,
-                            orientation_error=eo, twist=xi, sigma_min=smin, damping=float(res.damping),
-                            task_error=res.task_error, velocity_scale=scale,
+        res = cyc.res
+        active = cyc.active
+        return make_command(qd=qd, q_next=cyc.q_next, qdd=cyc.qdd.copy(), status=status, flags=flags,
+                            reason="; ".join(cyc.reasons), error=cyc.e, position_error=cyc.ep,
+                            orientation_error=cyc.eo, twist=cyc.xi, sigma_min=cyc.smin,
+                            damping=float(res.damping), task_error=res.task_error,
+                            velocity_scale=cyc.scale,
                             limits_active=tuple(dict.fromkeys(active)) if active else (), time=t0,
-                            dt=dt, solve=res, _chain=self.chain, _q=q)
-        return cmd
+                            dt=dt, solve=res, chain=self.chain, q=self._q_last)
 
     def _jerk_limited_position_guard(self, q, qd, dt, flags, reasons, active):
         """Keep a smoothed joint inside its position range: the Ruckig filter lags the
@@ -479,16 +579,17 @@ class ResolvedRateController:
             qd = qd_prev * factor
             q_next = base + qd * dt
             qdd = (qd - qd_prev) / dt
-        self._qd = qd
+        self._qd = qd.copy()
         self._qdd = qdd
-        self._q_last = base
+        self._q_last = base.copy()
         t0 = self.time
         self.time = t0 + dt
-        return Command(qd=qd, q_next=q_next, qdd=qdd, status=status, flags=(status,), reason=reason,
-                       error=np.zeros(6) if error is None else error.copy(), position_error=ep,
-                       orientation_error=eo, twist=np.zeros(6), sigma_min=sigma_min, damping=0.0,
-                       task_error=np.zeros(6), velocity_scale=0.0, limits_active=(), time=t0, dt=dt,
-                       solve=None, _chain=self.chain, _q=base)
+        return make_command(qd=qd, q_next=q_next, qdd=qdd.copy(), status=status, flags=(status,),
+                            reason=reason, error=np.zeros(6) if error is None else error.copy(),
+                            position_error=ep, orientation_error=eo, twist=np.zeros(6),
+                            sigma_min=sigma_min, damping=0.0, task_error=np.zeros(6), velocity_scale=0.0,
+                            limits_active=(), time=t0, dt=dt, solve=None, chain=self.chain,
+                            q=self._q_last)
 
     def __repr__(self) -> str:
         return (f"ResolvedRateController({self.chain.name!r}, solver={type(self.solver).__name__}, "

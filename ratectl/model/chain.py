@@ -102,7 +102,7 @@ class Chain:
 
     @classmethod
     def from_urdf(cls, source, *, tip: str | None = None, base_link: str | None = None,
-                  name: str | None = None) -> Chain:
+                  name: str | None = None, qlim=None, vmax=None, amax=None, jmax=None) -> Chain:
         """Chain from a URDF file path or the URDF text itself (see :mod:`ratectl.io.urdf`).
 
         Args:
@@ -111,19 +111,25 @@ class Chain:
             tip: the link that becomes the tool frame (required where the tree branches).
             base_link: the link that becomes the base frame (default: the root link).
             name: chain name (default: the ``<robot name>``).
+            qlim, vmax, amax, jmax: limits to set or replace after import, as in
+                :meth:`with_limits` (URDF carries no acceleration or jerk limits: pass
+                ``amax``/``jmax`` here for acceleration-limited or smoothed control).
         """
         from ..io.urdf import parse_urdf
 
-        return cls.from_description(parse_urdf(source, tip=tip, base_link=base_link, name=name))
+        chain = cls.from_description(parse_urdf(source, tip=tip, base_link=base_link, name=name))
+        return chain.with_limits(qlim=qlim, vmax=vmax, amax=amax, jmax=jmax)
 
     @classmethod
-    def from_mjcf(cls, path_or_model, *, tip: str | None = None,
-                  name: str | None = None) -> Chain:
+    def from_mjcf(cls, path_or_model, *, tip: str | None = None, name: str | None = None,
+                  qlim=None, vmax=None, amax=None, jmax=None) -> Chain:
         """Chain from an MJCF file, its text, or a compiled ``mujoco.MjModel``
-        (see :mod:`ratectl.io.mjcf`)."""
+        (see :mod:`ratectl.io.mjcf`); ``qlim, vmax, amax, jmax`` set or replace limits
+        after import, as in :meth:`with_limits`."""
         from ..io.mjcf import parse_mjcf
 
-        return cls.from_description(parse_mjcf(path_or_model, tip=tip, name=name))
+        chain = cls.from_description(parse_mjcf(path_or_model, tip=tip, name=name))
+        return chain.with_limits(qlim=qlim, vmax=vmax, amax=amax, jmax=jmax)
 
     @classmethod
     def from_description(cls, description: ModelDescription) -> Chain:
@@ -150,6 +156,65 @@ class Chain:
         """The same chain with another tool transform (flange → tool, 4×4)."""
         return Chain(self._joints, base=self._base, tool=tool, name=self._name,
                      table=self._table, characteristic_length=self._length)
+
+    def with_limits(self, *, qlim=None, vmax=None, amax=None, jmax=None) -> Chain:
+        """The same chain with some limits set or replaced; ``None`` keeps the chain's.
+
+        Args:
+            qlim: position limits (lower, upper) [rad or m]: one pair for every joint, or
+                an (n, 2) array; ±inf where absent.
+            vmax, amax, jmax: velocity [rad/s or m/s], acceleration [rad/s² or m/s²] and
+                jerk [rad/s³ or m/s³] limits (positive magnitudes, inf where absent): a
+                scalar for every joint or n values.
+
+        Example: ``rc.Chain.from_urdf(path, tip="tool").with_limits(amax=10.0, jmax=100.0)``.
+
+        Raises:
+            InputError: a wrong shape; ModelError: a value that is not a valid limit.
+        """
+        import dataclasses
+
+        n = self._n
+        cols = {}
+        if qlim is not None:
+            try:
+                a = np.asarray(qlim, dtype=float)
+            except (TypeError, ValueError):
+                raise InputError(f"qlim must be a pair (lower, upper) or ({n}, 2) numbers, got {qlim!r}",
+                                 argument="qlim", value=qlim) from None
+            if a.shape == (2,):
+                a = np.broadcast_to(a, (n, 2))
+            if a.shape != (n, 2):
+                raise InputError(f"qlim must be a pair (lower, upper) or have shape ({n}, 2), got shape "
+                                 f"{a.shape}", argument="qlim", value=qlim)
+            cols["qlim"] = [(float(lo), float(hi)) for lo, hi in a]
+        for key, v in (("vmax", vmax), ("amax", amax), ("jmax", jmax)):
+            if v is None:
+                continue
+            try:
+                a = np.asarray(v, dtype=float)
+            except (TypeError, ValueError):
+                raise InputError(f"{key} must be a number or {n} numbers, got {v!r}", argument=key,
+                                 value=v) from None
+            if a.shape not in ((), (n,)):
+                raise InputError(f"{key} must be a scalar or have shape ({n},), got shape {a.shape}",
+                                 argument=key, value=v)
+            cols[key] = np.broadcast_to(a, (n,)).tolist()
+        if not cols:
+            return self
+        joints = []
+        for k, j in enumerate(self._joints):
+            try:
+                joints.append(dataclasses.replace(j, **{key: c[k] for key, c in cols.items()}))
+            except ModelError as exc:
+                raise ModelError(f"{self._name}: joint {k}: {exc}", field=exc.field, joint=k,
+                                 value=exc.value) from None
+        table = self._table
+        if table is not None:
+            table = tuple(dataclasses.replace(r, **{key: c[k] for key, c in cols.items()})
+                          for k, r in enumerate(table))
+        return Chain(joints, base=self._base, tool=self._tool, name=self._name, table=table,
+                     characteristic_length=self._length)
 
     def with_base(self, base) -> Chain:
         """The same chain with another base transform (world → frame 0, 4×4)."""

@@ -303,3 +303,67 @@ def test_smoothed_joints_stay_inside_their_position_ranges(name):
                 assert np.all(np.abs(cmd.qdd - qdd_prev) <= arm.jmax * dt * (1 + 1e-6))
                 q, qdd_prev = cmd.q_next, cmd.qdd
     assert worst <= 1e-9
+
+
+def test_command_is_immutable_and_cannot_change_the_controller(ur5e):
+    import dataclasses
+    import inspect
+
+    ctrl = rc.ResolvedRateController(ur5e)
+    target = _shifted(ur5e.fk(Q_REG), [0.01, 0.0, 0.0])
+    cmd = ctrl.step(Q_REG, target=target, dt=1e-3)
+    for name in ("qd", "q_next", "qdd", "error", "twist", "task_error"):
+        a = getattr(cmd, name)
+        with pytest.raises(ValueError):
+            a[0] = 1.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        cmd.qd = np.zeros(6)
+    assert np.array_equal(ctrl.qd, cmd.qd) and ctrl.qd is not cmd.qd
+    # the next cycle starts from the commanded q̇, whatever the caller does with the command
+    qd_before = ctrl.qd.copy()
+    ctrl.qd[0] = 99.0  # a copy
+    forced = cmd.qd
+    forced.setflags(write=True)  # even forced writable, the command shares nothing with the controller
+    forced[:] = 99.0
+    assert np.array_equal(ctrl.qd, qd_before)
+    # keyword-only construction, no private fields in the signature; kind is lazy
+    params = inspect.signature(Command).parameters
+    assert not any(p.startswith("_") for p in params)
+    assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params.values())
+    fields = {f.name: getattr(cmd, f.name) for f in dataclasses.fields(Command)}
+    with pytest.raises(TypeError):
+        Command(*fields.values())
+    hand = Command(**fields)
+    assert hand.kind is None and cmd.kind == "regular"
+    hand_qd = np.ones(6)
+    hand = Command(**{**fields, "qd": hand_qd})
+    hand_qd[0] = 5.0  # the command copied it
+    assert hand.qd[0] == 1.0 and not hand.qd.flags.writeable
+    # kind is computed at the cycle's q even when the caller updates q in place
+    q = Q_WRIST.copy()
+    q[4] = 1e-3
+    ctrl.reset()
+    cmd = ctrl.step(q, twist=np.zeros(6), dt=1e-3)
+    q += 0.5
+    assert cmd.kind == "wrist"
+
+
+def test_the_stages_of_a_cycle_are_separate_methods(ur5e):
+    """validate → halt check → error → solve → limit → smooth → command, each callable."""
+    ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.Inverse())
+    T = ur5e.fk(Q_REG)
+    target = _shifted(T, [0.001, 0.0, 0.0])
+    q, tgt, tw, dt, qd_ff = ctrl._validate(list(Q_REG), target, None, "0.001", None)
+    assert q.dtype == float and dt == 1e-3
+    with pytest.raises(InputError):
+        ctrl._validate(Q_REG, np.eye(3), None, 1e-3, None)
+    assert ctrl._halt_reason(q, tgt, tw, dt, qd_ff, None) is None
+    cyc = ctrl._error(q, tgt, tw)
+    assert np.allclose(cyc.e, rc.spatial.pose_error(target, T)) and np.allclose(cyc.xi, ctrl.gain * cyc.e)
+    assert ctrl._solve(cyc, q, dt, None) is None
+    assert np.allclose(ur5e.jacobian(q) @ cyc.qd, cyc.xi)
+    ctrl._limit(cyc, q, dt)
+    assert np.all(np.abs(cyc.qd) <= ur5e.amax * dt * (1 + 1e-12))  # from rest: acceleration-limited
+    assert ctrl._smooth(cyc, q, dt, None) is None
+    cmd = ctrl._command(cyc, q, dt)
+    assert np.allclose(cmd.q_next, q + cmd.qd * dt) and cmd.status == "acceleration-limited"
