@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import InputError, RatectlError, SingularityError
 from ..model import robots
 from ..planning import ik
-from ..spatial import pose_error
+from ..spatial import pose_error, rotation_angle, so3_exp
 
 __all__ = ["Scenario", "MethodResult", "Comparison", "wrist_line", "run_fixed_law",
            "run_governor", "compare", "format_table", "plot_comparison", "METHODS", "DEMO_ARMS"]
@@ -205,6 +205,30 @@ def wrist_line(arm: str = "ur5e", *, half_length: float = 0.15, speed: float = 0
 
 
 # --------------------------------------------------------------------------- runs
+def _line_progress(path, p) -> np.ndarray:
+    """Path parameter s [m] of the nearest point of the line for each tool position (N, 3)."""
+    d2 = float(path.dp @ path.dp)
+    if d2 == 0.0:
+        return np.array([path.closest(x) for x in p])
+    lam = np.clip((p - path.p0) @ path.dp / d2, 0.0, 1.0)
+    return lam * path.length
+
+
+def _path_errors(path, T) -> tuple[np.ndarray, np.ndarray]:
+    """Distance of each pose of T (N, 4, 4) from the line: position [m] and orientation [rad].
+
+    Vectorised ``path.distance``: the nearest point of the segment, and the angle between
+    the tool rotation and the path's rotation there (``R(s) = R0 exp((s/L) w)``).
+    """
+    p = T[:, :3, 3]
+    s = _line_progress(path, p)
+    lam = s / path.length if path.length > 0 else np.zeros(len(s))
+    pos = np.linalg.norm(p - (path.p0 + lam[:, None] * path.dp), axis=1)
+    R_path = path.rot.R0 @ so3_exp(lam[:, None] * path.rot.w)
+    ang = rotation_angle(np.swapaxes(R_path, -1, -2) @ T[:, :3, :3])
+    return pos, np.asarray(ang)
+
+
 def _finish(method, chain, path, t, q, qd, dt, *, note="", wall=0.0, pos=None, ang=None,
             duration=None, nominal=None) -> MethodResult:
     t = np.asarray(t, dtype=float)
@@ -213,22 +237,18 @@ def _finish(method, chain, path, t, q, qd, dt, *, note="", wall=0.0, pos=None, a
     qdd = np.zeros_like(qd)
     if len(qd) > 1:
         qdd[1:] = np.diff(qd, axis=0) / dt
+    Tq = chain.fk(q)
     if pos is None or ang is None:
-        T = chain.fk(q)
-        pos = np.empty(len(q))
-        ang = np.empty(len(q))
-        for k in range(len(q)):
-            pos[k], ang[k], _ = path.distance(T[k])
-    Tend = chain.fk(q[-1])
+        pos, ang = _path_errors(path, Tq)
+    Tend = Tq[-1]
     e_end = pose_error(path.end, Tend)
     completed = bool(np.linalg.norm(e_end[:3]) <= _END_POSITION_TOL
                      and np.linalg.norm(e_end[3:]) <= _END_ANGLE_TOL)
     if duration is None:
         # first time from which the tool stays within the end tolerance (else the last time)
-        Tq = chain.fk(q)
-        e = np.array([pose_error(path.end, Tk) for Tk in Tq])
-        ok = ((np.linalg.norm(e[:, :3], axis=1) <= _END_POSITION_TOL)
-              & (np.linalg.norm(e[:, 3:], axis=1) <= _END_ANGLE_TOL))
+        end_pos = np.linalg.norm(Tq[:, :3, 3] - path.end[:3, 3], axis=1)
+        end_ang = rotation_angle(path.end[:3, :3].T @ Tq[:, :3, :3])
+        ok = (end_pos <= _END_POSITION_TOL) & (end_ang <= _END_ANGLE_TOL)
         bad = np.flatnonzero(~ok)
         first = 0 if len(bad) == 0 else int(bad[-1]) + 1
         duration = t[first] if first < len(t) else t[-1]
@@ -436,7 +456,7 @@ def plot_comparison(comparison: Comparison, path) -> str:
         ax_o.plot(r.t, np.degrees(r.orientation_error), color=c, label=r.method)
         ax_q.plot(r.t, r.q[:, 3], color=c, label=r.method)
         ax_q5.plot(r.t, r.q[:, 4], color=c, label=r.method)
-        s = np.array([sc.path.closest(p) for p in sc.chain.fk(r.q)[:, :3, 3]])
+        s = _line_progress(sc.path, sc.chain.fk(r.q)[:, :3, 3])
         ax_s.plot(r.t, s / sc.path.length, color=c, label=r.method)
     ax_v.axhline(1.0, color="k", ls="--", lw=1)
     ax_v.set_yscale("log")

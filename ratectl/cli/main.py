@@ -16,7 +16,10 @@ link or body). Errors are reported as one message on stderr with exit code 2.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
+import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -55,56 +58,85 @@ def load_arm(name: str, *, tip: str | None = None):
                 "(or give a .urdf or MJCF .xml file)")
 
 
-def parse_q(tokens, chain, *, degrees: bool = False, seed: int | None = None) -> np.ndarray:
+def parse_q(tokens, chain, *, degrees: bool = False, seed: int | None = None,
+            warn=None) -> np.ndarray:
     """Joint positions from the command line.
 
-    ``tokens`` are numbers (separate or comma-separated; ``pi`` and fractions such as
-    ``pi/2`` or ``-pi/4`` are accepted), or one of the words ``zero``, ``mid`` (middle of
-    the limits) and ``random`` (uniform within the limits; ``seed``).
-    Revolute values are in degrees when ``degrees``; prismatic values always in metres.
+    ``tokens`` are joint values (separate or comma-separated), or one of the words
+    ``zero``, ``mid`` (middle of the limits) and ``random`` (uniform within the limits;
+    ``seed``). A joint value follows the grammar
+
+        value  := [sign] ( number | [number ["*"]] "pi" ["/" number] )
+        number := digits ["." digits] [exponent]  |  "." digits [exponent]
+
+    so ``1.57``, ``-0.5``, ``2e-3``, ``pi``, ``-2pi``, ``0.5*pi``, ``pi/2`` and ``-3*pi/4``
+    are values, while ``pi/``, ``pipi``, ``1pi1``, ``pi*pi``, ``pi2``, ``nan`` and ``inf``
+    are errors naming the token. Revolute values are in degrees when ``degrees``;
+    prismatic values always in metres. Values outside a joint's limits are accepted
+    with a warning naming the joint, passed to ``warn`` (a callable taking one line of
+    text; default: no warning).
     """
     words = [w for tok in tokens for w in str(tok).replace(",", " ").split()]
     n = chain.dof
-    if len(words) == 1 and words[0].lower() in ("zero", "zeros", "mid", "random"):
+    if len(words) == 1 and words[0].lower() in _Q_WORDS:
         w = words[0].lower()
         if w.startswith("zero"):
-            return np.zeros(n)
-        if w == "mid":
+            q = np.zeros(n)
+        elif w == "mid":
             lo = np.where(np.isfinite(chain.lower), chain.lower, 0.0)
             hi = np.where(np.isfinite(chain.upper), chain.upper, 0.0)
-            return 0.5 * (lo + hi)
-        return chain.random_q(rng=seed)
-    values = []
-    for w in words:
-        values.append(_number(w))
-    if len(values) != n:
-        raise _Fail(f"--q needs {n} values for {chain.name} (one per joint: "
-                    f"{', '.join(chain.joint_names)}), got {len(values)}")
-    q = np.array(values, dtype=float)
-    if degrees:
-        q = np.where(chain.prismatic, q, np.radians(q))
+            q = 0.5 * (lo + hi)
+        else:
+            return chain.random_q(rng=seed)
+    else:
+        bad_words = [w for w in words if w.lower() in _Q_WORDS]
+        if bad_words:
+            raise _Fail(f"--q takes either {n} joint values or one of the words zero, mid, random, "
+                        f"not {bad_words[0]!r} among values")
+        values = [_number(w) for w in words]
+        if len(values) != n:
+            raise _Fail(f"--q needs {n} values for {chain.name} (one per joint: "
+                        f"{', '.join(chain.joint_names)}), got {len(values)}")
+        q = np.array(values, dtype=float)
+        if degrees:
+            q = np.where(chain.prismatic, q, np.radians(q))
+    if warn is not None:
+        for i in range(n):
+            lo, hi = float(chain.lower[i]), float(chain.upper[i])
+            if not lo <= q[i] <= hi:
+                unit = "m" if chain.prismatic[i] else "rad"
+                warn(f"q{i + 1} ({chain.joint_names[i]}) = {q[i]:.4g} {unit} is outside its limits "
+                     f"[{lo:.4g}, {hi:.4g}] {unit}")
     return q
 
 
+_Q_WORDS = ("zero", "zeros", "mid", "random")
+_NUM = r"(?:\d+(?:\.\d*)?|\.\d+)(?:e[-+]?\d+)?"
+_VALUE = re.compile(rf"([-+]?)(?:(?P<plain>{_NUM})|(?:(?P<times>{_NUM})\*?)?(?:pi|π)(?:/(?P<over>{_NUM}))?)",
+                    re.IGNORECASE | re.ASCII)
+_VALUE_HELP = ("a joint value is a number (1.57, -0.5, 2e-3), optionally times pi (pi, -2pi, 0.5*pi) "
+               "and over a number (pi/2, -3*pi/4)")
+
+
 def _number(w: str) -> float:
-    s = w.strip().lower()
-    sign = 1.0
-    if s.startswith("-"):
-        sign, s = -1.0, s[1:]
-    elif s.startswith("+"):
-        s = s[1:]
-    try:
-        if "pi" in s:
-            num, _, den = s.partition("/")
-            factor = num.replace("*", "").replace("pi", "") or "1"
-            value = float(factor) * math.pi / (float(den) if den else 1.0)
-        else:
-            value = float(s)
-    except ValueError:
-        raise _Fail(f"cannot read {w!r} as a joint value (use numbers such as 1.57, pi/2, "
-                    "or one of zero, mid, random)") from None
+    """One joint value by the grammar of :func:`parse_q`; raises ``_Fail`` naming the token."""
+    s = w.strip()
+    m = _VALUE.fullmatch(s)
+    if m is None:
+        raise _Fail(f"cannot read {w!r} as a joint value: {_VALUE_HELP}; or use one of the words "
+                    "zero, mid, random")
+    sign = -1.0 if m.group(1) == "-" else 1.0
+    if m.group("plain") is not None:
+        value = float(m.group("plain"))
+    else:
+        value = math.pi * (float(m.group("times")) if m.group("times") is not None else 1.0)
+        if m.group("over") is not None:
+            den = float(m.group("over"))
+            if den == 0.0:
+                raise _Fail(f"joint value {w!r} divides by zero")
+            value /= den
     if not math.isfinite(value):
-        raise _Fail(f"joint value {w!r} is not finite")
+        raise _Fail(f"joint value {w!r} is too large (not a finite number)")
     return sign * value
 
 
@@ -122,6 +154,38 @@ def _fmt_matrix(M, *, rows=None, cols=None, prec: int = 4) -> str:
 
 def _progress(message: str) -> None:
     print(f"  ... {message}", file=sys.stderr, flush=True)
+
+
+def _warner(command: str):
+    def warn(message: str) -> None:
+        print(f"ratectl {command}: warning: {message}", file=sys.stderr, flush=True)
+
+    return warn
+
+
+def _check_output(path: str, option: str, *, image: bool = True) -> None:
+    """Fail now, before any work, if ``path`` cannot be written (or is not an image format)."""
+    p = Path(path)
+    if p.is_dir():
+        raise _Fail(f"{option} {path}: is a directory; give a file name such as {p / 'plot.png'}")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise _Fail(f"{option} {path}: directory {parent} does not exist")
+    if image and p.suffix:
+        ext = p.suffix[1:].lower()
+        formats = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp", "pgf",
+                   "raw", "rgba")
+        if ext not in formats:
+            raise _Fail(f"{option} {path}: unknown image format {p.suffix!r}; use .png, .pdf or .svg")
+    existed = p.exists()
+    try:
+        with open(p, "ab"):
+            pass
+    except OSError as exc:
+        raise _Fail(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None
+    if not existed:
+        with contextlib.suppress(OSError):
+            os.remove(p)
 
 
 # --------------------------------------------------------------------------- commands
@@ -147,7 +211,7 @@ def _cmd_info(args) -> int:
 
 def _cmd_jacobian(args) -> int:
     chain = load_arm(args.arm, tip=args.tip)
-    q = parse_q(args.q, chain, degrees=args.deg, seed=args.seed)
+    q = parse_q(args.q, chain, degrees=args.deg, seed=args.seed, warn=_warner(args.command))
     point = None if args.point is None else np.array(args.point, dtype=float)
     T = chain.fk(q)
     J = chain.jacobian(q, frame=args.frame, point=point)
@@ -167,7 +231,7 @@ def _cmd_jacobian(args) -> int:
 
 def _cmd_singularity(args) -> int:
     chain = load_arm(args.arm, tip=args.tip)
-    q = parse_q(args.q, chain, degrees=args.deg, seed=args.seed)
+    q = parse_q(args.q, chain, degrees=args.deg, seed=args.seed, warn=_warner(args.command))
     from ..singularity import analyze
 
     r = analyze(chain, q)
@@ -180,7 +244,7 @@ def _cmd_singularity(args) -> int:
           f"{np.array2string(r.sigma_scaled, precision=4)}")
     print(f"sigma_min(J_L) = {r.sigma_min_scaled:.4g}   manipulability sqrt(det JJ^T) = "
           f"{r.manipulability:.4g}   condition(J_L) = {r.condition_scaled:.4g}")
-    if math.isfinite(r.joint_distance):
+    if math.isfinite(r.joint_distance) and not r.singular:
         print(f"estimated distance to the singular set: {r.joint_distance:.4g} rad (first order)")
     if r.factors:
         print("geometric factors (0 = singular): "
@@ -205,8 +269,10 @@ def _cmd_scan(args) -> int:
     chain = load_arm(args.arm, tip=args.tip)
     if args.samples < 1:
         raise _Fail(f"--samples must be a positive count, got {args.samples}")
-    if args.plot and not all(1 <= j <= chain.dof for j in args.joints) or args.joints[0] == args.joints[1]:
+    if args.plot and (not all(1 <= j <= chain.dof for j in args.joints) or args.joints[0] == args.joints[1]):
         raise _Fail(f"--joints must be two different joints in 1..{chain.dof}, got {args.joints}")
+    if args.plot:
+        _check_output(args.plot, "--plot")
     from ..singularity import KINDS, scan
 
     rng = np.random.default_rng(args.seed)
@@ -260,8 +326,11 @@ def _cmd_demo(args) -> int:
     from . import demo
 
     dt = 2e-3 if args.fast else args.dt
-    if not (dt > 0 and math.isfinite(dt)):
-        raise _Fail(f"--dt must be a positive time step in seconds, got {args.dt}")
+    if not (DEMO_DT_RANGE[0] <= dt <= DEMO_DT_RANGE[1]):
+        raise _Fail(f"--dt must be between {DEMO_DT_RANGE[0]:g} and {DEMO_DT_RANGE[1]:g} s (the work grows "
+                    f"as 1/dt: 1 ms takes about 10 s), got {args.dt:g}")
+    if not args.no_plot:
+        _check_output(args.out, "--out")
     t0 = time.perf_counter()
     print(f"ratectl demo: following a line past the wrist singularity of {args.arm} with five methods",
           file=sys.stderr)
@@ -279,14 +348,56 @@ def _cmd_demo(args) -> int:
 
 
 # --------------------------------------------------------------------------- parser
+#: Control periods ``ratectl demo --dt`` accepts [s].
+DEMO_DT_RANGE = (5e-4, 1e-2)
+#: Grid points per axis ``ratectl scan --resolution`` accepts.
+RESOLUTION_RANGE = (2, 1001)
+#: Largest ``ratectl scan --samples``.
+MAX_SAMPLES = 100_000_000
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error: ``ratectl CMD: error: ...`` (no usage block)."""
+
+    def error(self, message: str):  # noqa: D102 - argparse's hook
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+def _finite_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return v
+
+
+def _int_in(lo: int, hi: int | None, what: str):
+    def parse(text: str) -> int:
+        try:
+            v = int(text.replace("_", ""))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number ({what})") from None
+        if v < lo or (hi is not None and v > hi):
+            allowed = f"at least {lo}" if hi is None else f"from {lo} to {hi}"
+            raise argparse.ArgumentTypeError(f"{what} must be {allowed}, got {v}")
+        return v
+
+    parse.__name__ = what
+    return parse
+
+
 def _demo_arms():
     from .demo import DEMO_ARMS
 
     return DEMO_ARMS
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argparse parser of the ``ratectl`` command."""
     arms = ", ".join(robots.BUILTIN)
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="ratectl",
         description="Resolved-rate motion control for serial robot arms: Jacobians, singularity "
                     "analysis, damped and QP inverse velocity, path following with a path-speed "
@@ -304,7 +415,8 @@ def build_parser() -> argparse.ArgumentParser:
                                  "'pi/2' style values are accepted; or one word: zero (default), mid "
                                  "(middle of the limits), random")
             sp.add_argument("--deg", action="store_true", help="revolute values of --q are in degrees")
-            sp.add_argument("--seed", type=int, default=None, help="seed for --q random")
+            sp.add_argument("--seed", type=_int_in(0, None, "a seed"), default=None,
+                            help="seed for --q random (a whole number >= 0)")
 
     sp = sub.add_parser(
         "demo", help="compare five methods on a line past a wrist singularity (the main demo)",
@@ -312,12 +424,14 @@ def build_parser() -> argparse.ArgumentParser:
                     "wrist singularity (q5 = 0) with the exact inverse, fixed-damping DLS, adaptive "
                     "DLS, the QP and ratectl's path-speed governor. Prints a table of joint speed and "
                     "acceleration relative to the limits, path error, duration and completion, and "
-                    "writes a plot. Takes a few seconds.")
+                    "writes a plot. Takes about 10 s (mostly the four fixed-law runs).")
     sp.add_argument("--arm", default="ur5e", choices=sorted(_demo_arms()),
                     help="arm with a prepared scenario (default ur5e)")
     sp.add_argument("--out", default="ratectl_demo.png", help="plot file (default ratectl_demo.png)")
     sp.add_argument("--no-plot", action="store_true", help="print the table only")
-    sp.add_argument("--dt", type=float, default=1e-3, help="control period in seconds (default 0.001)")
+    sp.add_argument("--dt", type=_finite_float, default=1e-3,
+                    help=f"control period in seconds, {DEMO_DT_RANGE[0]:g} to {DEMO_DT_RANGE[1]:g} "
+                         "(default 0.001)")
     sp.add_argument("--fast", action="store_true", help="coarser period (2 ms) for a quicker run")
     sp.set_defaults(func=_cmd_demo)
 
@@ -333,7 +447,7 @@ def build_parser() -> argparse.ArgumentParser:
     arm_args(sp, with_q=True)
     sp.add_argument("--frame", choices=["base", "tool"], default="base",
                     help="axes of the Jacobian rows (default base)")
-    sp.add_argument("--point", nargs=3, type=float, metavar=("X", "Y", "Z"),
+    sp.add_argument("--point", nargs=3, type=_finite_float, metavar=("X", "Y", "Z"),
                     help="reference point for the linear rows, tool-frame coordinates in m")
     sp.set_defaults(func=_cmd_jacobian)
 
@@ -351,42 +465,53 @@ def build_parser() -> argparse.ArgumentParser:
                                     "near each kind of singularity. --plot also draws a map of "
                                     "sigma_min over two joints.")
     arm_args(sp, with_q=False)
-    sp.add_argument("--samples", type=int, default=100_000, help="number of configurations (default 100000)")
-    sp.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    sp.add_argument("--samples", type=_int_in(1, MAX_SAMPLES, "the number of samples"), default=100_000,
+                    help="number of configurations (default 100000)")
+    sp.add_argument("--seed", type=_int_in(0, None, "a seed"), default=0,
+                    help="random seed, a whole number >= 0 (default 0)")
     sp.add_argument("--plot", metavar="FILE", help="write a workspace map (PNG) to FILE")
-    sp.add_argument("--joints", nargs=2, type=int, default=[3, 5], metavar=("I", "J"),
+    sp.add_argument("--joints", nargs=2, type=_int_in(1, None, "a joint number"), default=[3, 5],
+                    metavar=("I", "J"),
                     help="1-based joints of the map's axes (default 3 5)")
-    sp.add_argument("--resolution", type=int, default=121, help="map grid points per axis (default 121)")
+    sp.add_argument("--resolution", type=_int_in(*RESOLUTION_RANGE, "the resolution"), default=121,
+                    help=f"map grid points per axis, {RESOLUTION_RANGE[0]} to {RESOLUTION_RANGE[1]} "
+                         "(default 121)")
     sp.set_defaults(func=_cmd_scan)
     return p
 
 
-def _is_value(token: str) -> bool:
-    if token.lower() in ("zero", "zeros", "mid", "random"):
-        return True
-    parts = [w for w in token.replace(",", " ").split()]
-    if not parts:
-        return False
-    try:
-        for w in parts:
-            _number(w)
-    except _Fail:
-        return False
-    return True
+def _is_option(token: str) -> bool:
+    """An option name (``--x``, ``-h``), not a joint value such as ``-1.2``, ``-pi/2`` or ``-nan``
+    (every short option of ``ratectl`` is ``-h``)."""
+    return token.startswith("--") or token == "-h"
+
+
+def _is_arm(token: str) -> bool:
+    key = token.lower().replace("-", "").replace("_", "")
+    return (key in {k.replace("_", "") for k in robots.BUILTIN}
+            or Path(token).suffix.lower() in (".urdf", ".xml", ".mjcf"))
 
 
 def _join_q(argv: list[str]) -> list[str]:
     """Rewrite ``--q v1 v2 ...`` as ``--q=v1,v2,...`` so that values such as ``-pi/2``
-    are not mistaken for options by argparse."""
+    are not mistaken for options by argparse.
+
+    Every token up to the next option is a value (so that a malformed last value is
+    reported by the value parser, naming it), except a trailing arm name or model file
+    when the positional ``ARM`` comes after ``--q``.
+    """
     out, i = [], 0
     while i < len(argv):
         tok = argv[i]
         if tok == "--q":
             vals = []
             i += 1
-            while i < len(argv) and _is_value(argv[i]):
+            while i < len(argv) and not _is_option(argv[i]):
                 vals.append(argv[i])
                 i += 1
+            if len(vals) > 1 and _is_arm(vals[-1]) and not any(_is_arm(t) for t in out[1:]):
+                i -= 1
+                vals.pop()
             out.append("--q=" + ",".join(vals) if vals else tok)
             continue
         out.append(tok)
@@ -398,7 +523,10 @@ def main(argv=None) -> int:
     """Run the ``ratectl`` command with ``argv`` (default ``sys.argv[1:]``); returns the exit code.
 
     Usage errors exit with code 2 (argparse's convention) and a one-line message on stderr;
-    so do ratectl errors (bad joint values, unknown arms, unreadable model files).
+    so do ratectl errors (bad joint values, unknown arms, unreadable model files, output
+    paths that cannot be written, which are checked before any work). Other failures
+    (out of memory, a write that fails midway, an internal error) print one line and exit
+    with code 1; set ``RATECTL_DEBUG=1`` to see the traceback of an internal error.
     """
     parser = build_parser()
     argv = _join_q(list(sys.argv[1:] if argv is None else argv))
@@ -409,13 +537,30 @@ def main(argv=None) -> int:
     try:
         return int(args.func(args) or 0)
     except (_Fail, RatectlError, InputError) as exc:
-        print(f"ratectl {args.command}: error: {exc}", file=sys.stderr)
+        print(f"ratectl {args.command}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("ratectl: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:  # e.g. `ratectl scan ... | head`
         return 0
+    except OSError as exc:  # e.g. the disk filled up while writing a plot
+        print(f"ratectl {args.command}: error: {_one_line(exc)}", file=sys.stderr)
+        return 1
+    except MemoryError:
+        print(f"ratectl {args.command}: error: out of memory (ask for fewer samples or a coarser grid)",
+              file=sys.stderr)
+        return 1
+    except Exception as exc:
+        if os.environ.get("RATECTL_DEBUG"):
+            raise
+        print(f"ratectl {args.command}: internal error: {type(exc).__name__}: {_one_line(exc)} "
+              "(please report it; RATECTL_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return 1
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())
 
 
 if __name__ == "__main__":  # pragma: no cover
