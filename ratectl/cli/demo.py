@@ -30,6 +30,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -37,6 +38,10 @@ from ..errors import InputError, RatectlError, SingularityError
 from ..model import robots
 from ..planning import ik
 from ..spatial import pose_error, rotation_angle, so3_exp
+
+if TYPE_CHECKING:
+    from ..model import Chain
+    from ..paths import Line
 
 __all__ = ["Scenario", "MethodResult", "Comparison", "wrist_line", "run_fixed_law",
            "run_governor", "compare", "format_table", "plot_comparison", "METHODS", "DEMO_ARMS"]
@@ -78,8 +83,8 @@ class Scenario:
         min_q5: the smallest |q5| along the line [rad].
     """
 
-    chain: object
-    path: object
+    chain: Chain
+    path: Line
     q0: np.ndarray
     q_closest: np.ndarray
     exact_speed: float
@@ -173,9 +178,9 @@ def wrist_line(arm: str = "ur5e", *, half_length: float = 0.15, speed: float = 0
                          argument="arm", value=arm)
     from ..paths import Line
 
-    make, qc = DEMO_ARMS[arm]
+    make, q_closest = DEMO_ARMS[arm]
     chain = make()
-    qc = np.array(qc, dtype=float)
+    qc = np.array(q_closest, dtype=float)
     Tc, Jc = chain.fk_jacobian(qc)
     Jinv = np.linalg.inv(Jc)
     d = np.linalg.svd(Jinv[:, :3])[2][0]
@@ -190,13 +195,13 @@ def wrist_line(arm: str = "ur5e", *, half_length: float = 0.15, speed: float = 0
         T[:3, 3] = Tc[:3, 3] - lam * half_length * d
         q = _on_line(chain, T, q)
     q0 = q.copy()
-    qs = [q0]
+    on_line = [q0]
     for lam in np.linspace(-1.0, 1.0, 2 * steps)[1:]:
         T = Tc.copy()
         T[:3, 3] = Tc[:3, 3] + lam * half_length * d
         q = _on_line(chain, T, q)
-        qs.append(q)
-    qs = np.array(qs)
+        on_line.append(q)
+    qs = np.array(on_line)
     ds = 2 * half_length / (2 * steps - 1)
     exact_speed = float(np.abs(np.diff(qs, axis=0)).max() / ds * speed)
     path = Line(T0, T1, speed=speed, acceleration=acceleration)

@@ -102,11 +102,11 @@ def parse_q(tokens, chain, *, degrees: bool = False, seed: int | None = None,
             q = np.where(chain.prismatic, q, np.radians(q))
     if warn is not None:
         for i in range(n):
-            lo, hi = float(chain.lower[i]), float(chain.upper[i])
-            if not lo <= q[i] <= hi:
+            lo_i, hi_i = float(chain.lower[i]), float(chain.upper[i])
+            if not lo_i <= q[i] <= hi_i:
                 unit = "m" if chain.prismatic[i] else "rad"
                 warn(f"q{i + 1} ({chain.joint_names[i]}) = {q[i]:.4g} {unit} is outside its limits "
-                     f"[{lo:.4g}, {hi:.4g}] {unit}")
+                     f"[{lo_i:.4g}, {hi_i:.4g}] {unit}")
     return q
 
 
@@ -292,14 +292,14 @@ def _cmd_scan(args) -> int:
         if args.samples > chunk:
             _progress(f"{done}/{args.samples} configurations ({time.perf_counter() - t0:.1f} s)")
     dt = time.perf_counter() - t0
-    smin = np.concatenate(smin)
-    w = np.concatenate(w)
+    smin_all = np.concatenate(smin)
+    w_all = np.concatenate(w)
     print(f"{chain.name}: {args.samples} random configurations within the joint limits "
           f"(seed {args.seed}), {dt:.2f} s ({args.samples / dt:,.0f} configurations/s)")
     pct = [0, 1, 5, 50, 95, 100]
     print("percentile            " + "".join(f"{p:>10d}%" for p in pct))
-    print("sigma_min(J_L)        " + "".join(f"{v:11.4g}" for v in np.percentile(smin, pct)))
-    print("manipulability        " + "".join(f"{v:11.4g}" for v in np.percentile(w, pct)))
+    print("sigma_min(J_L)        " + "".join(f"{v:11.4g}" for v in np.percentile(smin_all, pct)))
+    print("manipulability        " + "".join(f"{v:11.4g}" for v in np.percentile(w_all, pct)))
     print("classification (regular, or the kind of a near singularity): "
           + ", ".join(f"{k} {v} ({100 * v / args.samples:.2f}%)" for k, v in counts.items() if v))
     if args.plot:
@@ -500,7 +500,8 @@ def _join_q(argv: list[str]) -> list[str]:
     reported by the value parser, naming it), except a trailing arm name or model file
     when the positional ``ARM`` comes after ``--q``.
     """
-    out, i = [], 0
+    out: list[str] = []
+    i = 0
     while i < len(argv):
         tok = argv[i]
         if tok == "--q":
