@@ -143,7 +143,8 @@ class Chain:
         for jd in description.joints:
             try:
                 joints.append(Joint(kind=jd.kind, pre=jd.pre, post=jd.post, name=jd.name,
-                                    qlim=jd.qlim, vmax=jd.vmax))
+                                    qlim=(-math.inf, math.inf) if jd.qlim is None else jd.qlim,
+                                    vmax=math.inf if jd.vmax is None else jd.vmax))
             except ModelError as exc:
                 raise ImportModelError(f"{description.label}: {jd.element}: {exc}",
                                        element=jd.element) from None

@@ -108,12 +108,18 @@ class _Reference:
             if k >= len(r.t) - 1:
                 return r.poses[-1], None, None
             return r.poses[k], None, np.asarray(r.qd[k], dtype=float)
-        while self.index < len(self.poses) - 1 and self.reached(T_actual):
+        while self.index < len(self._targets) - 1 and self.reached(T_actual):
             self.index += 1
-        return self.poses[self.index], None, None
+        return self._targets[self.index], None, None
+
+    @property
+    def _targets(self) -> np.ndarray:
+        if self.poses is None:  # pragma: no cover - a path or a replay is handled before
+            raise InputError("no target poses to follow", argument="path_or_targets")
+        return self.poses
 
     def reached(self, T_actual) -> bool:
-        e = pose_error(self.poses[self.index], T_actual)
+        e = pose_error(self._targets[self.index], T_actual)
         return bool(np.linalg.norm(e[:3]) <= self.ptol and np.linalg.norm(e[3:]) <= self.rtol)
 
     @property
