@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import mujoco
@@ -210,28 +211,8 @@ def simulate(model_or_xml, chain: Chain, path_or_targets, q0, *, dt: float, cont
         t, q, q̇, q̈, tool poses, errors, statuses and σ_min, and a :class:`SimulationLog`
         with the commanded q̇, the actuator forces and the recorded distances.
     """
-    if actuation not in ACTUATIONS:
-        raise InputError(f"actuation must be one of {ACTUATIONS}, got {actuation!r}",
-                         argument="actuation", value=actuation)
-    if not isinstance(chain, Chain):
-        raise InputError(f"chain must be a ratectl.Chain, got {type(chain).__name__}", argument="chain",
-                         value=chain)
-    if not (isinstance(dt, int | float) and dt > 0 and math.isfinite(dt)):
-        raise InputError(f"dt must be a positive control period [s], got {dt!r}", argument="dt", value=dt)
-    if model_or_xml is None:
-        model_or_xml = to_mjcf(chain, actuators=actuation, site=frame)
-    model = compile_mjcf(model_or_xml)
-    data = mujoco.MjData(model)
-    qadr, dadr = mjcf_joint_addresses(model, chain)
-    jids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in chain.joint_names]
-    fid = _frame_id(model, frame, frame_type)
-    nsub = int(round(dt / model.opt.timestep))
-    if nsub < 1 or abs(nsub * model.opt.timestep - dt) > 1e-9 * max(dt, 1.0):
-        raise InputError(f"dt = {dt} s must be a whole multiple of the model time step "
-                         f"{model.opt.timestep} s", argument="dt", value=dt)
-    if physics:
-        act_ids, kp, kv = _actuators_for(model, jids, chain.joint_names, actuation)
-        ff = np.where(kp > 0, kv / np.where(kp > 0, kp, 1.0), 0.0)
+    plant = _Plant.build(model_or_xml, chain, dt=dt, actuation=actuation, frame=frame,
+                         frame_type=frame_type, physics=physics)
     q = chain.check_q(q0).astype(float).copy()
     if q.shape != (chain.dof,):
         raise InputError(f"q0 must have shape ({chain.dof},), got {q.shape}", argument="q0", value=q0)
@@ -249,34 +230,15 @@ def simulate(model_or_xml, chain: Chain, path_or_targets, q0, *, dt: float, cont
                          value=duration)
     steps = int(math.floor(duration / dt + 1e-9))
     n = chain.dof
-    data.qpos[qadr] = q
-    data.qvel[:] = 0.0
-    if physics:
-        data.ctrl[act_ids] = q if actuation == "position" else 0.0
-    mujoco.mj_forward(model, data)
-
-    def tool_pose():
-        T = np.eye(4)
-        if frame_type == "site":
-            T[:3, :3] = data.site_xmat[fid].reshape(3, 3)
-            T[:3, 3] = data.site_xpos[fid]
-        else:
-            T[:3, :3] = data.xmat[fid].reshape(3, 3)
-            T[:3, 3] = data.xpos[fid]
-        return T
-
+    plant.reset(q)
+    model, data = plant.model, plant.data
     ts, qs, qds, poses, desired, cmds, taus, dists, commands = [], [], [], [], [], [], [], [], []
     qd_meas = np.zeros(n)
     halted = ""
     for k in range(steps + 1):
         t = k * dt
         if physics:
-            # mj_step leaves the kinematics of the state before its last integration:
-            # refresh them so that the pose belongs to the measured q
-            mujoco.mj_kinematics(model, data)
-            q = np.array(data.qpos[qadr])
-            qd_meas = np.array(data.qvel[dadr])
-            T = tool_pose()
+            q, qd_meas, T = plant.measure()
         else:
             T = chain.fk(q)
         Td, xi_ff, qd_ff = ref.at(t, T)
@@ -287,7 +249,7 @@ def simulate(model_or_xml, chain: Chain, path_or_targets, q0, *, dt: float, cont
         desired.append(Td)
         if distance_pairs is not None:
             if not physics:
-                data.qpos[qadr] = q
+                data.qpos[plant.qadr] = q
                 mujoco.mj_kinematics(model, data)
             dists.append(geom_distance(model, data, distance_pairs))
         if k == steps:
@@ -310,32 +272,113 @@ def simulate(model_or_xml, chain: Chain, path_or_targets, q0, *, dt: float, cont
             qd_meas = qd_cmd.copy()
             taus.append(np.zeros(n))
             continue
-        if actuation == "velocity":
-            data.ctrl[act_ids] = qd_cmd
-        tau_acc = np.zeros(n)
-        h = model.opt.timestep
-        data.warning[_BADQACC].number = 0
-        time0 = data.time
-        for s in range(nsub):
-            if actuation == "position":
-                data.ctrl[act_ids] = q + qd_cmd * (s * h) + ff * qd_cmd
-            mujoco.mj_step(model, data)
-            tau_acc += data.actuator_force[act_ids]
-        taus.append(tau_acc / nsub)
-        if data.warning[_BADQACC].number > 0 or data.time < time0:
+        tau, stable = plant.apply(q, qd_cmd)
+        taus.append(tau)
+        if not stable:
             halted = (f"the MuJoCo simulation became unstable at t = {t + dt:.4g} s (non-finite or huge "
                       "accelerations; MuJoCo reset the state); lower the servo gains or the time step")
             break
         if on_step is not None:
             on_step(k, model, data)
     log = SimulationLog(qd_command=np.array(cmds).reshape(-1, n), tau=np.array(taus).reshape(-1, n),
-                        min_distance=np.array(dists), substeps=nsub, actuation=actuation,
+                        min_distance=np.array(dists), substeps=plant.nsub, actuation=actuation,
                         physics=physics)
     ex = _execution(chain, ref, np.array(ts), np.array(qs), np.array(qds), np.array(poses),
                     np.array(desired), commands, dt=dt, halted=halted, physics=physics,
-                    log_info={"actuation": actuation if physics else None, "substeps": nsub,
+                    log_info={"actuation": actuation if physics else None, "substeps": plant.nsub,
                               "timestep": float(model.opt.timestep)})
     return ex, log
+
+
+@dataclasses.dataclass
+class _Plant:
+    """The MuJoCo side of :func:`simulate`: the model, its state, the chain's addresses in it
+    and the actuators that command them."""
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    qadr: np.ndarray
+    dadr: np.ndarray
+    frame_id: int
+    frame_type: str
+    nsub: int
+    actuation: str
+    physics: bool
+    act_ids: np.ndarray | None = None
+    ff: np.ndarray | None = None
+
+    @classmethod
+    def build(cls, model_or_xml, chain: Chain, *, dt: float, actuation: str, frame: str,
+              frame_type: str, physics: bool) -> _Plant:
+        if actuation not in ACTUATIONS:
+            raise InputError(f"actuation must be one of {ACTUATIONS}, got {actuation!r}",
+                             argument="actuation", value=actuation)
+        if not isinstance(chain, Chain):
+            raise InputError(f"chain must be a ratectl.Chain, got {type(chain).__name__}",
+                             argument="chain", value=chain)
+        if not (isinstance(dt, int | float) and dt > 0 and math.isfinite(dt)):
+            raise InputError(f"dt must be a positive control period [s], got {dt!r}", argument="dt",
+                             value=dt)
+        if model_or_xml is None:
+            model_or_xml = to_mjcf(chain, actuators=actuation, site=frame)
+        model = compile_mjcf(model_or_xml)
+        qadr, dadr = mjcf_joint_addresses(model, chain)
+        nsub = int(round(dt / model.opt.timestep))
+        if nsub < 1 or abs(nsub * model.opt.timestep - dt) > 1e-9 * max(dt, 1.0):
+            raise InputError(f"dt = {dt} s must be a whole multiple of the model time step "
+                             f"{model.opt.timestep} s", argument="dt", value=dt)
+        plant = cls(model=model, data=mujoco.MjData(model), qadr=qadr, dadr=dadr,
+                    frame_id=_frame_id(model, frame, frame_type), frame_type=frame_type, nsub=nsub,
+                    actuation=actuation, physics=physics)
+        if physics:
+            jids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, nm) for nm in chain.joint_names]
+            act_ids, kp, kv = _actuators_for(model, jids, chain.joint_names, actuation)
+            plant.act_ids = act_ids
+            plant.ff = np.where(kp > 0, kv / np.where(kp > 0, kp, 1.0), 0.0)
+        return plant
+
+    def reset(self, q: np.ndarray) -> None:
+        """The arm at rest at q, servo setpoints on it."""
+        self.data.qpos[self.qadr] = q
+        self.data.qvel[:] = 0.0
+        if self.physics:
+            self.data.ctrl[self.act_ids] = q if self.actuation == "position" else 0.0
+        mujoco.mj_forward(self.model, self.data)
+
+    def tool_pose(self) -> np.ndarray:
+        T = np.eye(4)
+        d, i = self.data, self.frame_id
+        if self.frame_type == "site":
+            T[:3, :3] = d.site_xmat[i].reshape(3, 3)
+            T[:3, 3] = d.site_xpos[i]
+        else:
+            T[:3, :3] = d.xmat[i].reshape(3, 3)
+            T[:3, 3] = d.xpos[i]
+        return T
+
+    def measure(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, q̇, tool pose) as measured. mj_step leaves the kinematics of the state before its
+        last integration: they are refreshed so that the pose belongs to the measured q."""
+        mujoco.mj_kinematics(self.model, self.data)
+        return np.array(self.data.qpos[self.qadr]), np.array(self.data.qvel[self.dadr]), self.tool_pose()
+
+    def apply(self, q: np.ndarray, qd_cmd: np.ndarray) -> tuple[np.ndarray, bool]:
+        """Command q̇ for one control period (``nsub`` physics steps); returns the mean actuator
+        force and False when MuJoCo found the state unstable (and reset it)."""
+        model, data = self.model, self.data
+        if self.actuation == "velocity":
+            data.ctrl[self.act_ids] = qd_cmd
+        tau_acc = np.zeros(len(qd_cmd))
+        h = model.opt.timestep
+        data.warning[_BADQACC].number = 0
+        time0 = data.time
+        for s in range(self.nsub):
+            if self.actuation == "position":
+                data.ctrl[self.act_ids] = q + qd_cmd * (s * h) + self.ff * qd_cmd
+            mujoco.mj_step(model, data)
+            tau_acc += data.actuator_force[self.act_ids]
+        stable = not (data.warning[_BADQACC].number > 0 or data.time < time0)
+        return tau_acc / self.nsub, stable
 
 
 def render_frames(model, data, chain: Chain, qs, *, width: int = 480, height: int = 360,
