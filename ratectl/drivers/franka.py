@@ -316,15 +316,19 @@ class FrankySim:
                 self.process.wait(timeout)
             except (OSError, subprocess.TimeoutExpired):
                 self.kill()
+        try:
+            self.process.wait(5.0)
+        except subprocess.TimeoutExpired:  # pragma: no cover - a process that ignores SIGKILL
+            pass
         for f in (self.process.stdout, self.process.stderr):
             if f is not None:
                 f.close()
 
     def kill(self) -> None:
-        """Kill the server at once (a robot that disappears)."""
+        """Kill the server at once (a robot that disappears); returns without waiting for the
+        process to end (:meth:`close` reaps it)."""
         if self.process.poll() is None:
             self.process.kill()
-            self.process.wait(5.0)
 
     def pause(self) -> None:
         """Freeze the server (SIGSTOP): its state stops advancing, the connection stays."""
