@@ -83,6 +83,13 @@ def _positive(name: str, value, *, allow_none: bool = False):
     return v
 
 
+def _is_tty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
 class _StatusLine:
     """A one-line live report on stderr, rewritten in place at most every 0.25 s."""
 
@@ -268,7 +275,7 @@ def run(
         ) from exc
     ctrl.reset()
 
-    show = status_line if status_line is not None else (sys.stderr.isatty() and limit > 2.0)
+    show = status_line if status_line is not None else (_is_tty(sys.stderr) and limit > 2.0)
     line = _StatusLine(bool(show))
 
     # --- the loop
