@@ -280,6 +280,7 @@ def run(
 
     # --- the loop
     T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH, PER = ([] for _ in range(11))
+    trace = (T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH)  # one entry per recorded cycle
     TM = []  # (read, control, command, work) per cycle [s]
     stamp0 = state0.stamp
     last_stamp = -math.inf
@@ -326,26 +327,7 @@ def run(
                     f"{timeout * 1e3:.1f} ms); last stamp {state.stamp:.6g} s"
                 )
                 outcome = "halted"
-                _record(
-                    T_stamp,
-                    Q,
-                    QDm,
-                    QD,
-                    QDD,
-                    ST,
-                    SIG,
-                    TD,
-                    S,
-                    FRESH,
-                    state,
-                    np.zeros(n),
-                    np.zeros(n),
-                    "halted",
-                    sigma,
-                    Td,
-                    s_now,
-                    False,
-                )
+                _record(trace, state, np.zeros(n), np.zeros(n), "halted", sigma, Td, s_now, False)
                 TM.append((t_read - start, 0.0, 0.0, time.perf_counter() - start))
                 break
             t = state.stamp - stamp0
@@ -406,26 +388,7 @@ def run(
                 PER.pop()
                 break
             t_cmd = time.perf_counter()
-            _record(
-                T_stamp,
-                Q,
-                QDm,
-                QD,
-                QDD,
-                ST,
-                SIG,
-                TD,
-                S,
-                FRESH,
-                state,
-                qd_cmd,
-                qdd_cmd,
-                status,
-                sigma,
-                Td,
-                s_now,
-                fresh,
-            )
+            _record(trace, state, qd_cmd, qdd_cmd, status, sigma, Td, s_now, fresh)
             TM.append((t_read - start, t_ctrl - t_read, t_cmd - t_ctrl, t_cmd - start))
             # 5. end conditions (on fresh states)
             if fresh:
@@ -517,17 +480,11 @@ def run(
     return ex
 
 
-def _record(T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH, state, qd, qdd, status, sigma, Td, s, fresh):
-    T_stamp.append(state.stamp)
-    Q.append(state.q)
-    QDm.append(state.qd)
-    QD.append(qd)
-    QDD.append(qdd)
-    ST.append(status)
-    SIG.append(sigma)
-    TD.append(Td)
-    S.append(s)
-    FRESH.append(fresh)
+def _record(trace, state, qd, qdd, status, sigma, Td, s, fresh) -> None:
+    for column, value in zip(
+        trace, (state.stamp, state.q, state.qd, qd, qdd, status, sigma, Td, s, fresh), strict=True
+    ):
+        column.append(value)
 
 
 def _execution(
@@ -563,16 +520,7 @@ def _execution(
     n = chain.dof
     if not Q:  # ended before the first cycle was recorded: the first state is the record
         _record(
-            T_stamp,
-            Q,
-            QDm,
-            QD,
-            QDD,
-            ST,
-            SIG,
-            TD,
-            S,
-            FRESH,
+            (T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH),
             state0,
             np.zeros(n),
             np.zeros(n),
