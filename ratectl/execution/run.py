@@ -42,6 +42,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 
@@ -197,6 +198,7 @@ def run(
     period = 1.0 / rate_hz
 
     mode = given[0]
+    path = cast(Path, path)  # used only in mode "path", where it was given
     Td_fixed = None
     xi_fixed = None
     twist_fn: Callable | None = None
@@ -279,7 +281,17 @@ def run(
     line = _StatusLine(bool(show))
 
     # --- the loop
-    T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH, PER = ([] for _ in range(11))
+    T_stamp: list[float] = []
+    Q: list[np.ndarray] = []
+    QDm: list[np.ndarray] = []
+    QD: list[np.ndarray] = []
+    QDD: list[np.ndarray] = []
+    ST: list[str] = []
+    SIG: list[float] = []
+    TD: list[np.ndarray | None] = []
+    S: list[float] = []
+    FRESH: list[bool] = []
+    PER: list[float] = []
     trace = (T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH)  # one entry per recorded cycle
     TM = []  # (read, control, command, work) per cycle [s]
     stamp0 = state0.stamp
@@ -475,7 +487,7 @@ def run(
         tol=(pos_tol, ori_tol),
     )
     if interrupted is not None and on_interrupt == "raise":
-        interrupted.execution = ex
+        interrupted.execution = ex  # type: ignore[attr-defined]
         raise interrupted
     return ex
 
