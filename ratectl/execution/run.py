@@ -297,7 +297,9 @@ def run(
     stamp0 = state0.stamp
     last_stamp = -math.inf
     last_fresh_wall = time.perf_counter()
-    qd_cmd = np.zeros(n)
+    zero = np.zeros(n)
+    zero.setflags(write=False)  # shared by every cycle that records "no command"
+    qd_cmd = zero
     status = "regular"
     sigma = math.nan
     Td = Td_fixed
@@ -339,11 +341,11 @@ def run(
                     f"{timeout * 1e3:.1f} ms); last stamp {state.stamp:.6g} s"
                 )
                 outcome = "halted"
-                _record(trace, state, np.zeros(n), np.zeros(n), "halted", sigma, Td, s_now, False)
+                _record(trace, state, zero, zero, "halted", sigma, Td, s_now, False)
                 TM.append((t_read - start, 0.0, 0.0, time.perf_counter() - start))
                 break
             t = state.stamp - stamp0
-            qdd_cmd = np.zeros(n)
+            qdd_cmd = zero
             t_ctrl = t_read
             if fresh:
                 # 2. reference

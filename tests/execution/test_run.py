@@ -83,7 +83,7 @@ def test_watchdog_halts_within_timeout_plus_one_period(arm):
     # decided at the first cycle after the timeout: within timeout + that cycle's period, which is
     # one period unless the OS kept the process waiting
     assert timeout < delay <= timeout + ex.periods[-1] + 1e-4
-    assert delay <= timeout + 1.0 / rate + 0.02
+    assert delay <= timeout + 1.0 / rate + 0.05  # one period, plus what a busy OS may add
     assert drv.stops >= 1
     assert not ex.fresh[-1] and ex.t[-1] < 0.31
 
