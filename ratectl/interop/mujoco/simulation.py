@@ -63,6 +63,28 @@ def _actuators_for(model, joint_ids, names, actuation: str):
     return np.array(ids, dtype=int), np.array(kps), np.array(kvs)
 
 
+def _servo_period(model, data, act_ids, q, qd_cmd, ff, nsub: int, actuation: str):
+    """Step the physics ``nsub`` times toward the commanded joint velocity ``qd_cmd`` from ``q``.
+
+    Position servos get the ramp ``u(τ) = q + q̇_cmd·τ + (kv/kp)·q̇_cmd`` (``ff`` = kv/kp),
+    velocity servos ``u = q̇_cmd``. Returns (mean actuator force over the period, stable): not
+    stable when MuJoCo flagged bad accelerations or reset its state.
+    """
+    if actuation == "velocity":
+        data.ctrl[act_ids] = qd_cmd
+    tau_acc = np.zeros(len(act_ids))
+    h = model.opt.timestep
+    data.warning[_BADQACC].number = 0
+    time0 = data.time
+    for s in range(nsub):
+        if actuation == "position":
+            data.ctrl[act_ids] = q + qd_cmd * (s * h) + ff * qd_cmd
+        mujoco.mj_step(model, data)
+        tau_acc += data.actuator_force[act_ids]
+    stable = not (data.warning[_BADQACC].number > 0 or data.time < time0)
+    return tau_acc / nsub, stable
+
+
 class _Reference:
     """Desired pose and feed-forward twist over time, from a path or a list of poses."""
 
@@ -304,19 +326,9 @@ def simulate(model_or_xml, chain: Chain, path_or_targets, q0, *, dt: float, cont
             qd_meas = qd_cmd.copy()
             taus.append(np.zeros(n))
             continue
-        if actuation == "velocity":
-            data.ctrl[act_ids] = qd_cmd
-        tau_acc = np.zeros(n)
-        h = model.opt.timestep
-        data.warning[_BADQACC].number = 0
-        time0 = data.time
-        for s in range(nsub):
-            if actuation == "position":
-                data.ctrl[act_ids] = q + qd_cmd * (s * h) + ff * qd_cmd
-            mujoco.mj_step(model, data)
-            tau_acc += data.actuator_force[act_ids]
-        taus.append(tau_acc / nsub)
-        if data.warning[_BADQACC].number > 0 or data.time < time0:
+        tau_mean, stable = _servo_period(model, data, act_ids, q, qd_cmd, ff, nsub, actuation)
+        taus.append(tau_mean)
+        if not stable:
             halted = (f"the MuJoCo simulation became unstable at t = {t + dt:.4g} s (non-finite or huge "
                       "accelerations; MuJoCo reset the state); lower the servo gains or the time step")
             break
