@@ -49,7 +49,6 @@ def test_follows_a_line_on_the_measured_state(arm):
     # the stalls a busy machine imposes (the ≥ 90 % acceptance runs against franky-sim in
     # tests/drivers) — and every cycle is recorded
     assert abs(ex.period_p50 - 2e-3) < 1e-4
-    assert ex.period_p50 <= 1.0 / ex.achieved_rate_hz + 1e-9
     assert len(ex.periods) == len(ex.t) == len(ex.statuses) == len(ex.fresh)
     assert set(ex.statuses) <= set(rc.control.STATUSES)
     assert "loop" in ex.summary() and "Hz" in ex.summary()
