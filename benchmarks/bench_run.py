@@ -14,12 +14,17 @@ Run:  python benchmarks/bench_run.py [--seconds S] [--rate HZ]
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 import time
 
 import numpy as np
 
 import ratectl as rc
 from ratectl.drivers import ScriptedDriver
+
+sys.path.insert(0, os.path.dirname(__file__))
+from _timing import median_us  # noqa: E402
 
 
 class TimedController(rc.ResolvedRateController):
@@ -71,6 +76,9 @@ def main() -> None:
     args = ap.parse_args()
     arm = rc.robots.panda()
     q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
+    ur5e, qr = rc.robots.ur5e(), np.array([0.1, -1.2, 1.4, -1.6, 0.3, 0.2])
+    ref = median_us(lambda: ur5e.fk_jacobian(qr), number=500, repeat=7)
+    print(f"machine speed reference: UR5e fk_jacobian {ref:.2f} µs per call (see docs/benchmarks.md)")
     print(f"rc.run on ScriptedDriver(panda) at {args.rate:g} Hz for ~{args.seconds:g} s per mode\n")
     print(f"{'mode':6} {'cycles':>7} {'rate Hz':>8} {'overruns':>8} | {'loop overhead µs':>18} | "
           f"{'ctrl.step µs':>14} | {'read µs':>7} {'cmd µs':>7} | {'period ms p50/p99/max':>22} | record ms")

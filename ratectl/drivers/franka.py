@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from typing import Any
 
 import numpy as np
 
@@ -58,7 +59,7 @@ def franky_chain(urdf: str, *, flange: str = "link8", tool=None, vmax=None, amax
     chain = Chain.from_urdf(urdf, tip=flange)
     joints = []
     for i, j in enumerate(chain.joints):
-        changes = {}
+        changes: dict[str, Any] = {}
         for name, value in (("vmax", vmax), ("amax", amax), ("jmax", jmax)):
             if value is not None:
                 changes[name] = float(np.broadcast_to(np.asarray(value, dtype=float), (chain.dof,))[i])
@@ -285,8 +286,10 @@ class FrankySim:
             stderr=subprocess.PIPE,
             text=True,
         )
-        ready, _, _ = select.select([self.process.stdout], [], [], float(startup_timeout))
-        line = self.process.stdout.readline() if ready else ""
+        out = self.process.stdout
+        assert out is not None
+        ready, _, _ = select.select([out], [], [], float(startup_timeout))
+        line = out.readline() if ready else ""
         if not line.startswith("READY"):
             self.kill()
             err = self.process.stderr.read()[-2000:] if self.process.stderr else ""
@@ -312,19 +315,24 @@ class FrankySim:
 
         if self.process.poll() is None:
             try:
-                self.process.stdin.close()
+                if self.process.stdin is not None:
+                    self.process.stdin.close()
                 self.process.wait(timeout)
             except (OSError, subprocess.TimeoutExpired):
                 self.kill()
+        try:
+            self.process.wait(5.0)
+        except subprocess.TimeoutExpired:  # pragma: no cover - a process that ignores SIGKILL
+            pass
         for f in (self.process.stdout, self.process.stderr):
             if f is not None:
                 f.close()
 
     def kill(self) -> None:
-        """Kill the server at once (a robot that disappears)."""
+        """Kill the server at once (a robot that disappears); returns without waiting for the
+        process to end (:meth:`close` reaps it)."""
         if self.process.poll() is None:
             self.process.kill()
-            self.process.wait(5.0)
 
     def pause(self) -> None:
         """Freeze the server (SIGSTOP): its state stops advancing, the connection stays."""

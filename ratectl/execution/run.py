@@ -42,6 +42,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 
@@ -81,6 +82,13 @@ def _positive(name: str, value, *, allow_none: bool = False):
             f"{name} must be a positive finite number, got {value!r}", argument=name, value=value
         )
     return v
+
+
+def _is_tty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError, OSError):
+        return False
 
 
 class _StatusLine:
@@ -190,6 +198,7 @@ def run(
     period = 1.0 / rate_hz
 
     mode = given[0]
+    path = cast(Path, path)  # used only in mode "path", where it was given
     Td_fixed = None
     xi_fixed = None
     twist_fn: Callable | None = None
@@ -268,16 +277,29 @@ def run(
         ) from exc
     ctrl.reset()
 
-    show = status_line if status_line is not None else (sys.stderr.isatty() and limit > 2.0)
+    show = status_line if status_line is not None else (_is_tty(sys.stderr) and limit > 2.0)
     line = _StatusLine(bool(show))
 
     # --- the loop
-    T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH, PER = ([] for _ in range(11))
+    T_stamp: list[float] = []
+    Q: list[np.ndarray] = []
+    QDm: list[np.ndarray] = []
+    QD: list[np.ndarray] = []
+    QDD: list[np.ndarray] = []
+    ST: list[str] = []
+    SIG: list[float] = []
+    TD: list[np.ndarray | None] = []
+    S: list[float] = []
+    FRESH: list[bool] = []
+    PER: list[float] = []
+    trace = (T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH)  # one entry per recorded cycle
     TM = []  # (read, control, command, work) per cycle [s]
     stamp0 = state0.stamp
     last_stamp = -math.inf
     last_fresh_wall = time.perf_counter()
-    qd_cmd = np.zeros(n)
+    zero = np.zeros(n)
+    zero.setflags(write=False)  # shared by every cycle that records "no command"
+    qd_cmd = zero
     status = "regular"
     sigma = math.nan
     Td = Td_fixed
@@ -319,30 +341,11 @@ def run(
                     f"{timeout * 1e3:.1f} ms); last stamp {state.stamp:.6g} s"
                 )
                 outcome = "halted"
-                _record(
-                    T_stamp,
-                    Q,
-                    QDm,
-                    QD,
-                    QDD,
-                    ST,
-                    SIG,
-                    TD,
-                    S,
-                    FRESH,
-                    state,
-                    np.zeros(n),
-                    np.zeros(n),
-                    "halted",
-                    sigma,
-                    Td,
-                    s_now,
-                    False,
-                )
+                _record(trace, state, zero, zero, "halted", sigma, Td, s_now, False)
                 TM.append((t_read - start, 0.0, 0.0, time.perf_counter() - start))
                 break
             t = state.stamp - stamp0
-            qdd_cmd = np.zeros(n)
+            qdd_cmd = zero
             t_ctrl = t_read
             if fresh:
                 # 2. reference
@@ -399,26 +402,7 @@ def run(
                 PER.pop()
                 break
             t_cmd = time.perf_counter()
-            _record(
-                T_stamp,
-                Q,
-                QDm,
-                QD,
-                QDD,
-                ST,
-                SIG,
-                TD,
-                S,
-                FRESH,
-                state,
-                qd_cmd,
-                qdd_cmd,
-                status,
-                sigma,
-                Td,
-                s_now,
-                fresh,
-            )
+            _record(trace, state, qd_cmd, qdd_cmd, status, sigma, Td, s_now, fresh)
             TM.append((t_read - start, t_ctrl - t_read, t_cmd - t_ctrl, t_cmd - start))
             # 5. end conditions (on fresh states)
             if fresh:
@@ -505,22 +489,16 @@ def run(
         tol=(pos_tol, ori_tol),
     )
     if interrupted is not None and on_interrupt == "raise":
-        interrupted.execution = ex
+        interrupted.execution = ex  # type: ignore[attr-defined]
         raise interrupted
     return ex
 
 
-def _record(T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH, state, qd, qdd, status, sigma, Td, s, fresh):
-    T_stamp.append(state.stamp)
-    Q.append(state.q)
-    QDm.append(state.qd)
-    QD.append(qd)
-    QDD.append(qdd)
-    ST.append(status)
-    SIG.append(sigma)
-    TD.append(Td)
-    S.append(s)
-    FRESH.append(fresh)
+def _record(trace, state, qd, qdd, status, sigma, Td, s, fresh) -> None:
+    for column, value in zip(
+        trace, (state.stamp, state.q, state.qd, qd, qdd, status, sigma, Td, s, fresh), strict=True
+    ):
+        column.append(value)
 
 
 def _execution(
@@ -556,16 +534,7 @@ def _execution(
     n = chain.dof
     if not Q:  # ended before the first cycle was recorded: the first state is the record
         _record(
-            T_stamp,
-            Q,
-            QDm,
-            QD,
-            QDD,
-            ST,
-            SIG,
-            TD,
-            S,
-            FRESH,
+            (T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH),
             state0,
             np.zeros(n),
             np.zeros(n),

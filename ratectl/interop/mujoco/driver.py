@@ -25,7 +25,7 @@ from ...errors import DriverError, InputError
 from ...io.mjcf import mjcf_joint_addresses
 from ...model import Chain
 from .export import compile_mjcf, to_mjcf
-from .simulation import _BADQACC, ACTUATIONS, _actuators_for
+from .simulation import ACTUATIONS, _actuators_for, _servo_period
 
 __all__ = ["MujocoDriver"]
 
@@ -115,18 +115,10 @@ class MujocoDriver:
         self._step(v, self._nsub)
 
     def _step(self, v: np.ndarray, nsub: int) -> None:
-        m, d = self.model, self.data
-        h = float(m.opt.timestep)
+        d = self.data
         q = np.array(d.qpos[self._qadr])
-        if self.actuation == "velocity":
-            d.ctrl[self._act] = v
-        d.warning[_BADQACC].number = 0
-        time0 = d.time
-        for s in range(nsub):
-            if self.actuation == "position":
-                d.ctrl[self._act] = q + v * (s * h) + self._ff * v
-            mujoco.mj_step(m, d)
-        if d.warning[_BADQACC].number > 0 or d.time < time0:
+        _, stable = _servo_period(self.model, d, self._act, q, v, self._ff, nsub, self.actuation)
+        if not stable:
             raise DriverError(
                 f"the MuJoCo simulation became unstable at t = {d.time:.4g} s (non-finite or huge "
                 "accelerations; MuJoCo reset the state); lower the servo gains or the time step",

@@ -64,6 +64,28 @@ def _actuators_for(model, joint_ids, names, actuation: str):
     return np.array(ids, dtype=int), np.array(kps), np.array(kvs)
 
 
+def _servo_period(model, data, act_ids, q, qd_cmd, ff, nsub: int, actuation: str):
+    """Step the physics ``nsub`` times toward the commanded joint velocity ``qd_cmd`` from ``q``.
+
+    Position servos get the ramp ``u(τ) = q + q̇_cmd·τ + (kv/kp)·q̇_cmd`` (``ff`` = kv/kp),
+    velocity servos ``u = q̇_cmd``. Returns (mean actuator force over the period, stable): not
+    stable when MuJoCo flagged bad accelerations or reset its state.
+    """
+    if actuation == "velocity":
+        data.ctrl[act_ids] = qd_cmd
+    tau_acc = np.zeros(len(act_ids))
+    h = model.opt.timestep
+    data.warning[_BADQACC].number = 0
+    time0 = data.time
+    for s in range(nsub):
+        if actuation == "position":
+            data.ctrl[act_ids] = q + qd_cmd * (s * h) + ff * qd_cmd
+        mujoco.mj_step(model, data)
+        tau_acc += data.actuator_force[act_ids]
+    stable = not (data.warning[_BADQACC].number > 0 or data.time < time0)
+    return tau_acc / nsub, stable
+
+
 class _Reference:
     """Desired pose and feed-forward twist over time, from a path or a list of poses."""
 
@@ -365,20 +387,8 @@ class _Plant:
     def apply(self, q: np.ndarray, qd_cmd: np.ndarray) -> tuple[np.ndarray, bool]:
         """Command q̇ for one control period (``nsub`` physics steps); returns the mean actuator
         force and False when MuJoCo found the state unstable (and reset it)."""
-        model, data = self.model, self.data
-        if self.actuation == "velocity":
-            data.ctrl[self.act_ids] = qd_cmd
-        tau_acc = np.zeros(len(qd_cmd))
-        h = model.opt.timestep
-        data.warning[_BADQACC].number = 0
-        time0 = data.time
-        for s in range(self.nsub):
-            if self.actuation == "position":
-                data.ctrl[self.act_ids] = q + qd_cmd * (s * h) + self.ff * qd_cmd
-            mujoco.mj_step(model, data)
-            tau_acc += data.actuator_force[self.act_ids]
-        stable = not (data.warning[_BADQACC].number > 0 or data.time < time0)
-        return tau_acc / self.nsub, stable
+        return _servo_period(self.model, self.data, self.act_ids, q, qd_cmd, self.ff, self.nsub,
+                             self.actuation)
 
 
 def render_frames(model, data, chain: Chain, qs, *, width: int = 480, height: int = 360,
