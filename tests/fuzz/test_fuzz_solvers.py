@@ -161,7 +161,7 @@ def _check_qp(fuzz, seed, *, ill=False, backend="osqp", with_ff=False):
 
 
 def test_qp_answers_are_inside_their_box_and_optimal(fuzz):
-    @fuzz.settings(300)
+    @fuzz.settings(50)
     @given(seed=st.integers(0, 2**32 - 1))
     def prop(seed):
         _check_qp(fuzz, seed)
@@ -170,7 +170,7 @@ def test_qp_answers_are_inside_their_box_and_optimal(fuzz):
 
 
 def test_qp_with_ill_conditioned_task_weights_is_certified_optimal(fuzz):
-    @fuzz.settings(150)
+    @fuzz.settings(30)
     @given(seed=st.integers(0, 2**32 - 1))
     def prop(seed):
         _check_qp(fuzz, seed, ill=True)
@@ -179,7 +179,7 @@ def test_qp_with_ill_conditioned_task_weights_is_certified_optimal(fuzz):
 
 
 def test_qp_with_feed_forward_bounds_the_total(fuzz):
-    @fuzz.settings(150)
+    @fuzz.settings(30)
     @given(seed=st.integers(0, 2**32 - 1))
     def prop(seed):
         _check_qp(fuzz, seed, with_ff=True)
@@ -189,7 +189,7 @@ def test_qp_with_feed_forward_bounds_the_total(fuzz):
 
 @pytest.mark.skipif(not HAVE_DAQP, reason="daqp not installed")
 def test_qp_matches_daqp(fuzz):
-    @fuzz.settings(60)
+    @fuzz.settings(15)
     @given(seed=st.integers(0, 2**32 - 1))
     def prop(seed):
         opts, J, xi, lim, q, qd_prev, dt = _problem(seed)
@@ -205,7 +205,7 @@ def test_qp_matches_daqp(fuzz):
 
 
 def test_exact_box_solver_equals_enumeration(fuzz):
-    @fuzz.settings(150)
+    @fuzz.settings(30)
     @given(seed=st.integers(0, 2**32 - 1))
     def prop(seed):
         r = np.random.default_rng(seed)
@@ -272,7 +272,7 @@ def _hostile_J(r):
 def test_every_solver_answers_finite_or_raises_a_ratectl_error(fuzz):
     lim = Limits(lower=-np.ones(6), upper=np.ones(6), vmax=np.full(6, 2.0), amax=np.full(6, 10.0))
 
-    @fuzz.settings(120)
+    @fuzz.settings(20)
     @given(seed=st.integers(0, 2**32 - 1))
     def prop(seed):
         r = np.random.default_rng(seed)
