@@ -312,3 +312,37 @@ def test_malformed_qp_options_are_input_errors(kw):
     base.update(kw)
     with pytest.raises(rc.errors.InputError):
         QP().solve(np.eye(2), np.ones(2), **base)
+
+
+@pytest.mark.skipif(not HAVE_DAQP, reason="daqp not installed")
+def test_qp_with_extra_rows_is_feasible_and_matches_daqp(fuzz):
+    @fuzz.settings(20)
+    @given(seed=st.integers(0, 2**32 - 1))
+    def prop(seed):
+        opts, J, xi, lim, q, qd_prev, dt = _problem(seed)
+        r = np.random.default_rng(seed + 7)
+        n = J.shape[1]
+        k = int(r.integers(1, 4))
+        G = r.standard_normal((k, n))
+        h = r.uniform(0.0, 0.5, k)  # q̇ = 0 is feasible for the rows
+        kw = dict(limits=lim, q=q, qd_prev=qd_prev, dt=dt, extra_inequalities=(G, h))
+        fuzz.count("qp", 2)
+        vb = joint_velocity_bounds(lim, q=q, qd_prev=qd_prev, dt=dt)
+        try:
+            ref = QP(backend="daqp", **opts).solve(J, xi, **kw)
+        except RatectlError:
+            return  # the box and the rows have no common point (the box may exclude 0)
+        a = QP(**opts).solve(J, xi, **kw)
+        assert np.all(G @ a.qd <= h + 1e-6 * (1 + np.abs(h)))
+        assert _in_box(a.qd, vb.lower, vb.upper)
+        P, bb = _objective_matrices(opts, J, xi)
+        fa = 0.5 * a.qd @ P @ a.qd - bb @ a.qd
+        fr = 0.5 * ref.qd @ P @ ref.qd - bb @ ref.qd
+        assert fa <= fr + 1e-7 * (1.0 + abs(fr) + float(np.abs(P).max()) + float(np.abs(bb).max()))
+
+    prop()
+
+
+def _in_box(x, lo, hi, rel=1e-6):
+    tol = rel * (1.0 + np.abs(x))
+    return bool(np.all(x >= lo - tol) and np.all(x <= hi + tol))
