@@ -31,6 +31,8 @@ import re
 
 import numpy as np
 
+from .reference import MAX_PRISMATIC
+
 _SNAP = 1e-15
 
 
@@ -244,10 +246,10 @@ def generate_source(joints, base: np.ndarray, tool: np.ndarray, *, what: str,
         return _batched_source(n, lines, outputs)
     args = ", ".join(f"q{i}" for i in range(n))
     body = [f"def kernel({args}):"]
-    if guard:  # prismatic joint values beyond ±1e150 m would overflow the pose
+    if guard:  # prismatic joint values beyond ±_QMAX m are refused (see MAX_PRISMATIC)
         for i, j in enumerate(joints):
             if j.kind == "prismatic":
-                body.append(f"    if not -1e150 <= q{i} <= 1e150: _refuse(q{i}, {i})")
+                body.append(f"    if not -_QMAX <= q{i} <= _QMAX: _refuse(q{i}, {i})")
     for target, expr in lines:
         body.append(f"    {target} = {expr}")
     body.append("    return (" + ", ".join(_ref(v) for v in outputs) + ",)")
@@ -351,6 +353,7 @@ def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str =
                 guard(chain, a)
 
             namespace["_refuse"] = _refuse
+            namespace["_QMAX"] = MAX_PRISMATIC
     filename = f"<ratectl kernel {label} {what}{' batched' if batched else ''} #{next(_SERIAL)}>"
     linecache.cache[filename] = (len(src), None, src.splitlines(True), filename)
     exec(compile(src, filename, "exec"), namespace)

@@ -39,9 +39,10 @@ def _motion(kind: str, q: np.ndarray) -> np.ndarray:
     return M
 
 
-#: Largest |q| [m] of a prismatic joint: beyond it poses and Jacobians leave floating-point
-#: range (sums of ~1e308 overflow); such a q is refused with an InputError.
-MAX_PRISMATIC = 1e150
+#: Largest |q| [m] of a prismatic joint (like the 1e9 m cap on link lengths): far beyond
+#: any robot, and small enough that poses, Jacobians and the products of singular values
+#: (manipulability) stay in floating-point range; a larger q is refused with an InputError.
+MAX_PRISMATIC = 1e9
 
 
 def check_prismatic_range(chain, a) -> None:

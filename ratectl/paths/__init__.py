@@ -30,10 +30,10 @@ Time laws (``law=``):
 from __future__ import annotations
 
 from .arc import Arc
-from .base import Path
+from .base import MAX_STEPS, Path
 from .line import Line
 from .time_laws import LAWS, JerkLimited, Quintic, TimeLaw, Trapezoidal, make_time_law
 from .waypoints import Waypoints
 
 __all__ = ["TimeLaw", "Trapezoidal", "JerkLimited", "Quintic", "make_time_law", "Path", "Line", "Arc",
-           "Waypoints", "LAWS"]
+           "Waypoints", "LAWS", "MAX_STEPS"]

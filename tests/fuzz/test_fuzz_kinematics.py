@@ -63,7 +63,7 @@ def _call(fuzz, what, f):
 
 
 def test_kinematics_finite_or_ratectl_error(fuzz):
-    @fuzz.settings(150)
+    @fuzz.settings(30)
     @given(seed=st.integers(0, 2**32 - 1), extreme=st.booleans())
     def prop(seed, extreme):
         r = np.random.default_rng(seed)
@@ -93,7 +93,7 @@ def test_kinematics_finite_or_ratectl_error(fuzz):
 
 
 def test_jacobian_matches_finite_differences_on_random_chains(fuzz):
-    @fuzz.settings(60)
+    @fuzz.settings(15)
     @given(seed=st.integers(0, 2**32 - 1))
     def prop(seed):
         r = np.random.default_rng(seed)
@@ -106,7 +106,7 @@ def test_jacobian_matches_finite_differences_on_random_chains(fuzz):
 
 
 def test_random_q_within_limits_for_every_accepted_margin(fuzz):
-    @fuzz.settings(100)
+    @fuzz.settings(30)
     @given(seed=st.integers(0, 2**32 - 1), margin=st.floats(0, 10, allow_nan=False))
     def prop(seed, margin):
         r = np.random.default_rng(seed)

@@ -215,3 +215,53 @@ def _polish(P, b, lo, hi, x):
     if np.any(g[up] > kkt) or np.any(g[dn] < -kkt):
         return None
     return np.minimum(np.maximum(xa, lo), hi)
+
+
+def polish_general(P, b, lo, hi, G, h, x, *, tol_act: float = 1e-6):
+    """The exact solution of min ½xᵀPx − bᵀx s.t. lo ≤ x ≤ hi, G x ≤ h on the active set of
+    an approximate solution ``x`` (from OSQP), with its certificate; or None.
+
+    Every constraint is written a_iᵀx ≤ c_i (the box as ±e_i rows); those within
+    ``tol_act`` (relative) of equality form A x = c. The KKT system
+    [P Aᵀ; A 0] [x; μ] = [b; c] is solved (least squares when rows are dependent), and the
+    answer is accepted only when it is feasible (1e-9 relative), its multipliers are
+    non-negative (μ ≥ −1e-9·scale) and it satisfies the KKT stationarity to 1e-9·scale:
+    then it is the optimum (the problem is convex)."""
+    n = x.shape[0]
+    eye = _eye(n)
+    rows = [eye, -eye, G]
+    rhs = [hi, -lo, h]
+    A = np.vstack(rows)
+    c = np.concatenate(rhs)
+    fin = np.isfinite(c) & (np.abs(c) < 1e14)
+    A, c = A[fin], c[fin]
+    slack = c - A @ x
+    act = slack <= tol_act * (1.0 + np.abs(c))
+    Aa, ca = A[act], c[act]
+    k = Aa.shape[0]
+    K = np.zeros((n + k, n + k))
+    K[:n, :n] = P
+    K[:n, n:] = Aa.T
+    K[n:, :n] = Aa
+    r = np.concatenate([b, ca])
+    try:
+        sol = np.linalg.lstsq(K, r, rcond=1e-13)[0]
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    xs = sol[:n]
+    scale = 1.0 + float(np.max(np.abs(b))) + float(np.max(np.abs(P))) * (1.0 + float(np.max(np.abs(xs))))
+    if not np.all(np.isfinite(xs)):
+        return None
+    if np.any(A @ xs - c > 1e-9 * (1.0 + np.abs(c))):
+        return None
+    # stationarity: P x − b + Aᵀμ = 0 with μ ≥ 0
+    if k:
+        mu = np.linalg.lstsq(Aa.T, b - P @ xs, rcond=1e-13)[0]
+        if np.any(mu < -1e-9 * scale):
+            return None
+        res = P @ xs - b + Aa.T @ mu
+    else:
+        res = P @ xs - b
+    if float(np.max(np.abs(res))) > 1e-9 * scale:
+        return None
+    return np.minimum(np.maximum(xs, lo), hi)

@@ -91,6 +91,13 @@ class _BoundCache:
             self.amax_dt_l = None
             self.dstar2 = None
         else:
+            tiny = afin & ~(a * dt * dt >= 1e-290)
+            if tiny.any():
+                j = int(np.flatnonzero(tiny)[0])
+                raise InputError(
+                    f"amax[{j}] = {limits.amax[j]:.3g} with dt = {dt:.3g} s: amax·dt² underflows "
+                    "floating point (below 1e-290); use a larger amax or dt (or inf for no "
+                    "acceleration limit)", argument="limits", value=limits)
             self.amax_dt = np.where(afin, a * dt, _BIG)
             self.amax_dt_l = self.amax_dt.tolist()
             self.inv_dt = 1.0 / dt
@@ -100,11 +107,14 @@ class _BoundCache:
             self.inv_adt22 = np.concatenate([self.inv_adt2, self.inv_adt2])
             # the distance from which a joint at full speed can still stop: farther than
             # this from both limits, the velocity limit is the bound (no stop speed needed)
-            r = self.vmax / self.adt
-            k = np.floor(r)
-            f = r - k
-            dstar = self.adt * dt * ((k + 1.0) * f + 0.5 * k * (k + 1.0))
-            dstar = np.where(limits.vmax < _BIG, dstar * (1.0 + 1e-9) + 1e-12, np.inf)
+            with np.errstate(over="ignore", invalid="ignore"):
+                r = self.vmax / self.adt
+                k = np.floor(r)
+                f = r - k
+                dstar = self.adt * dt * ((k + 1.0) * f + 0.5 * k * (k + 1.0))
+            # not finite (overflow): always compute the braking bounds (the safe side)
+            dstar = np.where((limits.vmax < _BIG) & np.isfinite(dstar), dstar * (1.0 + 1e-9) + 1e-12,
+                             np.inf)
             self.dstar2 = np.concatenate([dstar, dstar])
         for arr in (self.vmax, self.nvmax):  # returned as the box when no other bound acts
             arr.setflags(write=False)

@@ -21,7 +21,7 @@ from ..base import (
 )
 from ..damped import DLS
 from ..nullspace import _objective
-from .active_set import _box_active_set, _polish, box_qp_exact, kkt_violation
+from .active_set import _box_active_set, _polish, box_qp_exact, kkt_violation, polish_general
 from .bounds import _BIG, _BoundCache, _box, _sources, _vec
 from .warm_osqp import _OSQP_DEFAULTS, _WarmOSQP
 
@@ -139,7 +139,10 @@ class QP(Solver):
         Every answer for a box-only problem is certified: it lies in its box and the KKT
         conditions hold (:func:`~ratectl.solvers.qp.active_set.kkt_violation` ≤ 1e-9);
         an answer that is not (an inaccurate OSQP result) is replaced by the exact
-        active-set solution (``info["certified"]`` says which path answered).
+        active-set solution (``info["certified"]`` says which path answered). With extra
+        rows the OSQP answer is replaced by the exact solution on its active set when
+        that passes the KKT check (``info["certified"] == "kkt"``), else kept with
+        ``"none"``; every answer is checked feasible (box and rows) to the tolerance.
 
         Returns:
             :class:`~ratectl.solvers.SolveResult` with ``limits_active`` naming the kinds of
@@ -271,6 +274,13 @@ class QP(Solver):
                         return self._fallback_result(J, xi, lo, hi, exc)
                     qd, status, certified = x2, "exact-active-set", "exact-active-set"
                     held = st2.tolist()
+            elif G is not None:
+                # extra rows: the exact solution on OSQP's active set, with its KKT certificate
+                x2 = polish_general(P, b, lo_, hi_, G, h, qd)
+                if x2 is not None:
+                    qd, certified = x2, "kkt"
+                else:
+                    certified = "none"  # feasibility is still checked below
             if lo is not None:
                 # clip into the box (violations up to the tolerance are numerical)
                 slack = min(float((hi - qd).min()), float((qd - lo).min()))
