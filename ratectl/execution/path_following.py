@@ -25,7 +25,7 @@ from ..control import ResolvedRateController, move
 from ..errors import InputError
 from ..paths import Path
 from ..planning import Governor, ik
-from ..spatial import pose_error
+from ..spatial import pose_error, rotation_angle
 from .record import Execution
 
 __all__ = ["follow"]
@@ -169,7 +169,12 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
     eend = pose_error(T_end, poses[-1])
     end_p, end_o = float(np.linalg.norm(eend[:3])), float(np.linalg.norm(eend[3:]))
     reached = end_p <= pos_tol and end_o <= ori_tol
-    duration = float(t[-1])
+    # the duration ends where the end pose is reached for good (not after the settle wait)
+    end_ok = (np.linalg.norm(poses[:, :3, 3] - T_end[:3, 3], axis=1) <= pos_tol) \
+        & (rotation_angle(np.swapaxes(poses[:, :3, :3], -1, -2) @ T_end[:3, :3]) <= ori_tol)
+    late = np.flatnonzero(~end_ok)
+    arrival = min(int(late[-1]) + 1, len(t) - 1) if len(late) else 0
+    duration = float(t[arrival]) if reached else float(t[-1])
     nominal = path.duration
     if halted_reason:
         completed = False
@@ -184,7 +189,7 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
     else:
         completed = True
         message = (f"completed in {duration:.3f} s, nominal {nominal:.3f} s "
-                   f"(+{duration - nominal:.3f} s, ×{duration / nominal if nominal > 0 else 1.0:.2f})")
+                   f"({duration - nominal:+.3f} s, ×{duration / nominal if nominal > 0 else 1.0:.2f})")
     info.update({"end_position_error": end_p, "end_orientation_error": end_o,
                  "governor": repr(gov) if gov is not None else None})
     return Execution(t=t, q=Q, qd=np.array(QD), qdd=np.array(QDD), poses=poses, position_error=perr,

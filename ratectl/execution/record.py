@@ -116,10 +116,11 @@ class Execution:
         """A few lines: completion, timing, errors, limits, statuses."""
         lines = [f"{self.source or 'execution'} of {self.chain_name or 'arm'}: "
                  f"{'completed' if self.completed else 'NOT completed'}"
-                 + (f" — {self.message}" if self.message else "")]
+                 + (f" — {self.message}" if self.message and not self.message.startswith("completed")
+                    else "")]
         if math.isfinite(self.nominal_duration):
             lines.append(f"  duration {self.duration:.3f} s vs nominal {self.nominal_duration:.3f} s "
-                         f"(+{self.extra_time:.3f} s, ×{self.slowdown:.2f})")
+                         f"({self.extra_time:+.3f} s, ×{self.slowdown:.2f})")
         if self.position_error is not None:
             lines.append(f"  max path error {self.max_position_error * 1e3:.4g} mm, "
                          f"{math.degrees(self.max_orientation_error):.4g}°")
