@@ -154,7 +154,7 @@ class Execution:
                 ax.axhline(self.vmax[i], color=line.get_color(), lw=0.6, ls=":")
                 ax.axhline(-self.vmax[i], color=line.get_color(), lw=0.6, ls=":")
         ax.set_ylabel("q̇ [rad/s]")
-        ax.legend(fontsize=7, ncol=min(7, self.qd.shape[1]), loc="upper right")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # beside
         ax = axes[1]
         if self.position_error is not None:
             ax.plot(self.t, self.position_error * 1e3, color="C0", label="position [mm]")
