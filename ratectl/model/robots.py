@@ -155,7 +155,7 @@ def iiwa7() -> Chain:
 
 
 def rpr(*, d1: float = 0.4, d3: float = 0.1, q2_range: tuple[float, float] = (0.1, 0.8)) -> Chain:
-    """The RPR worked example of DESIGN.md §1, standard DH.
+    """The RPR arm of the worked example in the documentation, standard DH.
 
     ====  =========  ==  ====  ====  =====
     i     type       θ   d     a     α
