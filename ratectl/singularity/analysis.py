@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -89,6 +90,7 @@ def _core(chain, J, L, rtol, near, factor_tol, raw):
     kind = _classify(smin, geo, st, near, factor_tol)
     st_v = _fast_singular_values(J[..., :3, :])
     st_w = _fast_singular_values(J[..., 3:, :])
+    kind = np.where((kind == _REGULAR) & _translation_lost(chain, st_v, L, near), _BOUNDARY, kind)
     out = dict(
         sigma_scaled=s, sigma_min_scaled=smin, manipulability=w, manipulability_scaled=w_s,
         condition_scaled=_cond(smax, smin, False),
@@ -134,10 +136,12 @@ def classify(chain, q=None, *, J=None, length: float | None = None, near: float 
     JL = J[None].copy()
     JL[..., :3, :] /= L
     smin = _fast_singular_values(JL)[..., -1]
+    lost = chain.dof < 6 and bool(_translation_lost(chain, _fast_singular_values(J[None, :3]), L, near)[0])
     if smin[0] >= near:
-        return "regular", float(smin[0])
+        return ("boundary" if lost else "regular"), float(smin[0])
     geo = _geometry(J[None], structure(chain), L, smin < near)
-    return KINDS[int(_classify(smin, geo, structure(chain), near, factor_tol)[0])], float(smin[0])
+    kind = int(_classify(smin, geo, structure(chain), near, factor_tol)[0])
+    return KINDS[_BOUNDARY if kind == _REGULAR and lost else kind], float(smin[0])
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -305,6 +309,24 @@ def _reason(kind, report_bits, J, geo, st: ArmStructure, L) -> str:
     return txt
 
 
+def _translation_lost(chain, st_v, L: float, near: float):
+    """For arms with fewer than 6 joints: the tool point has lost a translation direction
+    it has at generic configurations (a stretched or folded planar arm), from the
+    singular values of J_v (B, k) — that is the singularity that matters for such an arm
+    (its 6×n Jacobian may keep full column rank through the angular rows)."""
+    if chain.dof >= 6:
+        return np.zeros(st_v.shape[:-1], dtype=bool)
+    generic = _GENERIC_TRANSLATION_RANK.get(chain)
+    if generic is None:
+        Jr = chain.jacobian(chain.random_q(8, rng=0))
+        generic = max(int(np.sum(np.linalg.svd(Jk[:3], compute_uv=False) > 1e-9 * L)) for Jk in Jr)
+        _GENERIC_TRANSLATION_RANK[chain] = generic
+    return np.sum(st_v > near * L, axis=-1) < generic
+
+
+_GENERIC_TRANSLATION_RANK: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def analyze(chain, q, *, length: float | None = None, rtol: float = DEFAULT_RTOL,
             near: float = DEFAULT_NEAR, factor_tol: float = DEFAULT_FACTOR_TOL) -> SingularityReport:
     """Full singularity analysis of ``chain`` at one configuration q (n,).
@@ -351,6 +373,13 @@ def analyze(chain, q, *, length: float | None = None, rtol: float = DEFAULT_RTOL
     bits = dict(singular=singular, near=bool(smin < near), smin=smin, near_thr=near, rank=rk,
                 u_min=u_min, v_min=v_min, trans_rank_lost=bool(sv[-1] < near * L), trans_smin=float(sv[-1]))
     reason = _reason(kind, bits, J, geo, st, L)
+    if kind == _BOUNDARY and not bits["near"]:      # set by _translation_lost (n < 6)
+        pre = "singular" if bits["trans_smin"] <= 1e-9 * L else "near-singular"
+        reason = (f"{pre} workspace boundary: the tool point cannot translate in one direction "
+                  f"(σ_min(J_v) = {bits['trans_smin']:.3g} m/rad, the arm is stretched or folded); "
+                  f"lost: {_direction_phrase(bits['u_min'])}")
+    if singular:
+        jdist = 0.0      # on the singular set (the first-order estimate is meaningless there)
     W = T[:3, 3] + geo["W"] if st.wrist_point is not None else None
     det_arm = det_wrist = wc = None
     if st.spherical_wrist and n == 6:
