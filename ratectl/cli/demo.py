@@ -10,7 +10,7 @@ inverse needs joint speeds of order ‖ξ‖/σ_min. Five methods follow the sam
 * ``adaptive DLS`` — σ_min-scheduled damping (ε = λ_max = 0.05), unlimited;
 * ``QP`` — the DLS cost with λ = 0.001 and the joint velocity, position and acceleration
   limits as constraints;
-* ``governor`` — :func:`ratectl.follow` with its path-speed governor (the default).
+* ``governor`` — `ratectl.follow` with its path-speed governor (the default).
 
 The first four run the textbook resolved-rate loop on the nominal time law
 ``s(t)``: ``ξ = ξ_path(t) + K·e``, ``q̇ = solver(J, ξ)``, ``q ← q + q̇·dt`` (explicit
@@ -70,7 +70,7 @@ class Scenario:
 
     Attributes:
         chain: the arm.
-        path: a :class:`ratectl.paths.Line` at constant orientation.
+        path: a `ratectl.paths.Line` at constant orientation.
         q0: joint positions at the start of the line (n,) [rad].
         q_closest: joint positions at the closest approach (n,) [rad].
         exact_speed: the largest joint speed the exact inverse needs along the line
@@ -91,7 +91,7 @@ class MethodResult:
     """One method's run along the scenario's line.
 
     Attributes:
-        method: the method name (one of :data:`METHODS`).
+        method: the method name (one of `METHODS`).
         t: times (N,) [s]; q, qd, qdd: joint positions, velocities, accelerations (N, n).
         position_error: distance of the tool origin from the line (N,) [m].
         orientation_error: angle between the tool and the path orientation (N,) [rad].
@@ -130,7 +130,7 @@ class MethodResult:
 
 @dataclass(frozen=True)
 class Comparison:
-    """All methods on one scenario (see :func:`compare`)."""
+    """All methods on one scenario (see `compare`)."""
 
     scenario: Scenario
     results: tuple[MethodResult, ...]
@@ -155,7 +155,7 @@ def wrist_line(arm: str = "ur5e", *, half_length: float = 0.15, speed: float = 0
     """A constant-orientation line past the wrist singularity of a built-in arm.
 
     Construction: at the prepared configuration ``q_c`` (|q5| = 0.01 rad, see
-    :data:`DEMO_ARMS`) the line direction ``d`` is the unit translation that makes the
+    `DEMO_ARMS`) the line direction ``d`` is the unit translation that makes the
     exact inverse fastest, the top right singular vector of the first three columns of
     ``J(q_c)⁻¹`` (maximises ‖J⁻¹[d; 0]‖). The line runs from ``p_c − h·d`` to
     ``p_c + h·d`` at the orientation of ``q_c``. The start configuration ``q0`` and the
@@ -163,7 +163,7 @@ def wrist_line(arm: str = "ur5e", *, half_length: float = 0.15, speed: float = 0
     points per half).
 
     Args:
-        arm: a key of :data:`DEMO_ARMS`.
+        arm: a key of `DEMO_ARMS`.
         half_length: h [m]. speed, acceleration: the time law's cruise speed [m/s] and
             acceleration [m/s²] (trapezoidal).
         steps: continuation points per half line.
@@ -272,7 +272,7 @@ def run_fixed_law(scenario: Scenario, solver, *, method: str, dt: float = 1e-3, 
     ``q̇ = solver.solve(J, ξ).qd``, ``q ← q + q̇·dt``. Runs the time law's duration plus
     ``settle`` seconds holding the end pose (time for a method that fell behind to
     arrive); stops early when the solver raises a
-    :class:`~ratectl.errors.SingularityError` (the note says so).
+    `SingularityError` (the note says so).
 
     Args:
         solver: any object with ``solve(J, xi, **options)`` returning ``.qd``.
@@ -316,7 +316,7 @@ def run_fixed_law(scenario: Scenario, solver, *, method: str, dt: float = 1e-3, 
 
 def run_governor(scenario: Scenario, *, dt: float = 1e-3,
                  progress: Callable[[str], None] | None = None) -> MethodResult:
-    """Follow the line with :func:`ratectl.follow` and its default path-speed governor."""
+    """Follow the line with `ratectl.follow` and its default path-speed governor."""
     from ..execution import follow
 
     chain, path = scenario.chain, scenario.path
@@ -347,12 +347,12 @@ def _solver(method: str):
 
 def compare(arm: str = "ur5e", *, dt: float = 1e-3, methods=METHODS, half_length: float = 0.15,
             speed: float = 0.2, progress: Callable[[str], None] | None = None) -> Comparison:
-    """Run every method of ``methods`` on :func:`wrist_line` and collect the results.
+    """Run every method of ``methods`` on `wrist_line` and collect the results.
 
     Args:
-        arm: a key of :data:`DEMO_ARMS`. dt: control period [s].
-        methods: a subset of :data:`METHODS`, in the order wanted.
-        half_length, speed: passed to :func:`wrist_line`.
+        arm: a key of `DEMO_ARMS`. dt: control period [s].
+        methods: a subset of `METHODS`, in the order wanted.
+        half_length, speed: passed to `wrist_line`.
         progress: called with one line of text after each stage (for a progress display).
     """
     unknown = [m for m in methods if m not in METHODS]

@@ -1,4 +1,4 @@
-"""What one controller cycle returns: :class:`Command`, and the status vocabulary."""
+"""What one controller cycle returns: `Command`, and the status vocabulary."""
 
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ class Command:
         qd: commanded joint velocity (n,) [rad/s or m/s].
         q_next: joint positions after one period, q + q̇ dt (or the smoother's exact integral).
         qdd: joint acceleration of the command (n,): (q̇ − q̇_prev)/dt, or the smoother's.
-        status: one of :data:`STATUSES`; flags: every status that applies this cycle.
+        status: one of `STATUSES`; flags: every status that applies this cycle.
         reason: a sentence explaining a non-regular status ("" when regular).
         error: pose error e = [p_d − p; log(R_d Rᵀ)] (6,) (zeros without a target).
         position_error: ‖p_d − p‖ [m]; orientation_error: ‖log(R_d Rᵀ)‖ [rad].
@@ -49,8 +49,8 @@ class Command:
         velocity_scale: uniform factor applied for vmax (1 = none).
         limits_active: kinds of limit that bound: subset of ("velocity", "acceleration", "position").
         time: controller clock at the start of the cycle [s]; dt: the period [s].
-        solve: the solver's full :class:`~ratectl.solvers.SolveResult` (None when halted).
-        kind: (lazy) the singularity kind at q from :func:`ratectl.analyze`, computed on first
+        solve: the solver's full `SolveResult` (None when halted).
+        kind: (lazy) the singularity kind at q from `ratectl.analyze`, computed on first
             access only (it costs an SVD); None when unavailable.
     """
 
@@ -78,7 +78,7 @@ class Command:
     @cached_property
     def kind(self) -> str | None:
         """Singularity kind at the cycle's q ("regular", "wrist", "elbow", "shoulder",
-        "boundary", "rank-deficient"), from :func:`ratectl.analyze`; None if unavailable."""
+        "boundary", "rank-deficient"), from `ratectl.analyze`; None if unavailable."""
         return _kind_of(self._chain, self._q)
 
     @property

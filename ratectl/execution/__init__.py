@@ -1,8 +1,8 @@
 """Execution: running a controller over time and recording what happened.
 
-* :mod:`~ratectl.execution.path_following` — :func:`follow`, a kinematic simulation of the
+* `path_following` — `follow`, a kinematic simulation of the
   controller (and the governor) along a Cartesian path;
-* :mod:`~ratectl.execution.record` — :class:`Execution`, the record every run returns.
+* `record` — `Execution`, the record every run returns.
 """
 
 from __future__ import annotations

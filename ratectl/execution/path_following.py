@@ -1,8 +1,8 @@
-"""Run a resolved-rate controller along a Cartesian path: :func:`follow`.
+"""Run a resolved-rate controller along a Cartesian path: `follow`.
 
 Two modes:
 
-* ``governor=True`` (default): the path-speed governor (:mod:`ratectl.planning.governor`)
+* ``governor=True`` (default): the path-speed governor (`ratectl.planning.governor`)
   plans the joint path and a jerk-limited, limit-respecting progress s(t); each
   cycle the controller gets the planned joint velocity as feed-forward (``qd_ff``)
   and the path pose P(s_k) as target, so feedback corrects any drift. The motion
@@ -34,21 +34,21 @@ __all__ = ["follow"]
 def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle: float = 0.5,
            tolerance: tuple[float, float] = (1e-4, 1.75e-4), approach: bool = True,
            record_kinds: bool = True) -> Execution:
-    """Follow ``path`` with ``chain`` from joint positions ``q0``; returns an :class:`Execution`.
+    """Follow ``path`` with ``chain`` from joint positions ``q0``; returns an `Execution`.
 
     Args:
-        chain: the arm. path: a :class:`ratectl.paths.Path`. q0: (n,) start configuration.
+        chain: the arm. path: a `ratectl.paths.Path`. q0: (n,) start configuration.
         dt: control period [s].
-        controller: a :class:`~ratectl.controller.ResolvedRateController` (default: a new one with
+        controller: a `ResolvedRateController` (default: a new one with
             the default solver, the chain's limits and no smoothing). It is reset first.
         governor: True (default options), False (the path's time law), or a
-            :class:`~ratectl.governor.Governor` with custom options.
+            `Governor` with custom options.
         settle: time allowed after the schedule to converge on the end pose [s].
         tolerance: (position [m], orientation [rad]) for "completed" at the end pose.
         approach: if fk(q0) is not at the path start, first solve IK for the start pose and move
             there with a jerk-limited joint move (recorded in ``info["approach"]``); if False,
             such a q0 is an error.
-        record_kinds: ask :func:`ratectl.analyze` for the singularity kind on steps whose status
+        record_kinds: ask `ratectl.analyze` for the singularity kind on steps whose status
             is "damped" or "singular" (evaluated every 20 ms within such a stretch, carried
             over in between).
     """

@@ -1,6 +1,6 @@
-"""The record of an executed motion: :class:`Execution`.
+"""The record of an executed motion: `Execution`.
 
-Returned by :func:`ratectl.follow` (kinematic path following) and by the MuJoCo
+Returned by `ratectl.follow` (kinematic path following) and by the MuJoCo
 simulation; generic on purpose — arrays over the K recorded steps plus metadata —
 so any producer can fill it. Arrays that a producer does not have are ``None``.
 """

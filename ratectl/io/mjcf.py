@@ -1,6 +1,6 @@
-"""Read a serial arm from MJCF (:func:`parse_mjcf`) and match chain joints to a MuJoCo model.
+"""Read a serial arm from MJCF (`parse_mjcf`) and match chain joints to a MuJoCo model.
 
-MJCF is checked with the same guard as URDF (:func:`~ratectl.io.xml.parse_xml_safely`),
+MJCF is checked with the same guard as URDF (`parse_xml_safely`),
 mesh/heightfield/texture file references are replaced by placeholders, and the result
 is compiled by MuJoCo, the authority on MJCF semantics (defaults, angle units,
 ``euler`` sequences, ``ref`` positions); the chain is read from the compiled ``MjModel``.
@@ -62,7 +62,7 @@ def parse_mjcf(path_or_model, *, tip: str | None = None, name: str | None = None
 def compile_mjcf(model_or_source):
     """An ``MjModel`` from an ``MjModel`` (returned as is), MJCF text, bytes or a file path.
 
-    Text and files go through the safety checks of :func:`parse_mjcf` (no DTD/entities,
+    Text and files go through the safety checks of `parse_mjcf` (no DTD/entities,
     mesh files never opened, includes confined as documented there).
     """
     import mujoco

@@ -1,13 +1,13 @@
-"""Read a serial arm from a URDF description (:func:`parse_urdf`).
+"""Read a serial arm from a URDF description (`parse_urdf`).
 
-URDF is parsed with :mod:`xml.etree.ElementTree` behind :func:`~ratectl.io.xml.parse_xml_safely`
+URDF is parsed with `xml.etree.ElementTree` behind `parse_xml_safely`
 (no document type or entity declarations: nothing expands, no external reference is
 followed). Mesh files, ``package://`` URIs and the ``<mujoco>`` extension element are
 ignored and never opened. Fixed joints are folded into the next moving joint's ``pre``
 or, after the last one, into the tool transform; the base is the base link.
 
 Everything that cannot become a serial chain raises
-:class:`~ratectl.errors.ImportModelError` whose message and ``element`` attribute
+`ImportModelError` whose message and ``element`` attribute
 name the element at fault (for example ``"joint 'finger_2'"``).
 """
 
@@ -44,7 +44,7 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
         name: chain name; default the ``<robot name>``.
 
     Returns:
-        A :class:`~ratectl.io.description.ModelDescription` of a chain whose fk(q) is
+        A `ModelDescription` of a chain whose fk(q) is
         ``T_base_link_tip`` and whose
         joints carry the URDF names and limits: ``<limit lower upper>`` [rad or m] for
         revolute/prismatic joints (continuous joints are unlimited) and

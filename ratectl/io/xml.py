@@ -1,8 +1,8 @@
 """Reading model files safely: sources, size caps and an XML parser without entities.
 
-Both model formats (URDF, MJCF) come through here. :func:`read_source` accepts a path,
+Both model formats (URDF, MJCF) come through here. `read_source` accepts a path,
 XML text (``str`` starting with ``<``) or bytes and refuses files over the size cap;
-:func:`parse_xml_safely` refuses any document type or entity declaration, so no
+`parse_xml_safely` refuses any document type or entity declaration, so no
 entity is expanded and no external reference is followed.
 """
 

@@ -1,6 +1,6 @@
 """Built-in arm models with their published kinematic parameters.
 
-Each function returns a fresh :class:`~ratectl.chain.Chain`. Position and velocity
+Each function returns a fresh `Chain`. Position and velocity
 limits are the manufacturer's (or the cited source's) where published; where a
 source gives no acceleration or jerk limits the values here are conservative
 ratectl defaults and the docstring says so.

@@ -1,4 +1,4 @@
-"""The :class:`Path` base class: a curve of tool poses over the path parameter s, with a time law.
+"""The `Path` base class: a curve of tool poses over the path parameter s, with a time law.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ class Path:
 
     Subclasses implement ``_geometry(s) -> (p, R, dp/ds, ω/ṡ)``. Common keyword
     options: ``speed`` [m/s] and ``acceleration`` [m/s²] limits on ṡ and s̈, ``jerk``
-    [m/s³] (enables the jerk-limited law by default), ``law`` (one of :data:`LAWS`),
+    [m/s³] (enables the jerk-limited law by default), ``law`` (one of `LAWS`),
     ``rotation_length`` ρ [m/rad].
     """
 
@@ -83,7 +83,7 @@ class Path:
 
     def curvature_twist_at(self, s, *, h: float | None = None) -> np.ndarray:
         """Second derivative d²P/ds² as a twist-rate (6,) by central differences of
-        :meth:`twist_at` (step ``h`` [m], default 1e-5·length)."""
+        `twist_at` (step ``h`` [m], default 1e-5·length)."""
         h = h or max(1e-5 * self.length, 1e-9)
         s = self._clamp(s)
         a, b = max(s - h, 0.0), min(s + h, self.length)

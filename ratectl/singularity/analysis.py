@@ -1,5 +1,5 @@
-"""Classify a configuration and explain it: :func:`classify` (fast kind) and :func:`analyze`
-(a :class:`SingularityReport` with lost directions, null vectors and a plain-language reason).
+"""Classify a configuration and explain it: `classify` (fast kind) and `analyze`
+(a `SingularityReport` with lost directions, null vectors and a plain-language reason).
 """
 
 from __future__ import annotations
@@ -113,7 +113,7 @@ def classify(chain, q=None, *, J=None, length: float | None = None, near: float 
              factor_tol: float = DEFAULT_FACTOR_TOL) -> tuple[str, float]:
     """Fast kind of one configuration: ``(kind, σ_min(J_L))`` — for control loops.
 
-    The same classification as :func:`analyze` and :func:`scan` (identical results), but
+    The same classification as `analyze` and `scan` (identical results), but
     regular configurations cost one small eigenvalue problem (~20 µs) and the geometry
     is only evaluated when σ_min(J_L) < ``near``.
 
@@ -121,7 +121,7 @@ def classify(chain, q=None, *, J=None, length: float | None = None, near: float 
         chain: the robot model.
         q: joint positions (n,); not needed when ``J`` is given.
         J: the Jacobian (6, n) at q (base axes, tool origin) if already computed.
-        length, near, factor_tol: as in :func:`analyze`.
+        length, near, factor_tol: as in `analyze`.
     """
     if J is None:
         if q is None:
@@ -146,7 +146,7 @@ def classify(chain, q=None, *, J=None, length: float | None = None, near: float 
 
 @dataclass(frozen=True, kw_only=True)
 class SingularityReport:
-    """Singularity analysis of one configuration (see :func:`analyze`).
+    """Singularity analysis of one configuration (see `analyze`).
 
     Measures: ``sigma`` (raw singular values of J, mixed units), ``sigma_scaled``
     (of J_L = diag(I/L, I)·J, dimensionless), ``sigma_min``/``sigma_min_scaled``,
@@ -155,7 +155,7 @@ class SingularityReport:
     ``inverse_condition`` (σ_m/σ₁ of J_L), translational (J_v, m/rad) and rotational
     (J_ω, rad/rad) sub-measures.
 
-    Classification: ``kind`` ∈ :data:`KINDS`, ``singular`` (rank < min(6, n)),
+    Classification: ``kind`` ∈ `KINDS`, ``singular`` (rank < min(6, n)),
     ``near_singular`` (σ_min(J_L) < ``near``), ``causes`` (every named kind whose factor
     is below ``factor_tol``), ``factors`` (the geometric factors of 6-joint arms, see the module docstring),
     ``joint_distance`` (first-order estimate σ_min(J_L)/‖∇_q σ_min(J_L)‖ [rad] of how far
@@ -341,7 +341,7 @@ def analyze(chain, q, *, length: float | None = None, rtol: float = DEFAULT_RTOL
         factor_tol: a geometric factor (sine of an angle) below this names the kind.
 
     Returns:
-        A frozen :class:`SingularityReport`.
+        A frozen `SingularityReport`.
     """
     a = chain.check_q(q)
     if a.ndim != 1:

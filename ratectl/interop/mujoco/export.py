@@ -204,7 +204,7 @@ def to_mjcf(chain: Chain, *, name: str | None = None, radius: float = 0.03,
 def compile_mjcf(model_or_xml):
     """An ``MjModel`` from an ``MjModel`` (returned as is), MJCF text or a file path.
 
-    Text and files go through :meth:`ratectl.Chain.from_mjcf`'s safety
+    Text and files go through `ratectl.Chain.from_mjcf`'s safety
     checks (no DTD/entities, mesh files ignored).
     """
     return _compile_mjcf(model_or_xml)
