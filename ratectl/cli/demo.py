@@ -164,8 +164,9 @@ def wrist_line(arm: str = "ur5e", *, half_length: float = 0.15, speed: float = 0
 
     Args:
         arm: a key of `DEMO_ARMS`.
-        half_length: h [m]. speed, acceleration: the time law's cruise speed [m/s] and
-            acceleration [m/s²] (trapezoidal).
+        half_length: h [m].
+        speed: the time law's cruise speed [m/s] (trapezoidal law).
+        acceleration: the time law's acceleration [m/s²].
         steps: continuation points per half line.
     """
     if arm not in DEMO_ARMS:
@@ -275,10 +276,15 @@ def run_fixed_law(scenario: Scenario, solver, *, method: str, dt: float = 1e-3, 
     `SingularityError` (the note says so).
 
     Args:
+        scenario: the line and its start configuration (`wrist_line`).
         solver: any object with ``solve(J, xi, **options)`` returning ``.qd``.
-        method: the name for the result. dt: step [s]. gain: feedback K [1/s].
+        method: the name for the result.
+        dt: step [s].
+        gain: feedback K [1/s].
+        settle: time after the time law to hold the end pose [s].
         limits: pass the chain's limits, q, the previous q̇ and dt to the solver (the QP
             uses them); otherwise the solver gets no limits.
+        progress: called with one line of text when the run ends.
     """
     chain, path = scenario.chain, scenario.path
     n_steps = int(math.ceil((path.duration + settle) / dt))
@@ -350,9 +356,11 @@ def compare(arm: str = "ur5e", *, dt: float = 1e-3, methods=METHODS, half_length
     """Run every method of ``methods`` on `wrist_line` and collect the results.
 
     Args:
-        arm: a key of `DEMO_ARMS`. dt: control period [s].
+        arm: a key of `DEMO_ARMS`.
+        dt: control period [s].
         methods: a subset of `METHODS`, in the order wanted.
-        half_length, speed: passed to `wrist_line`.
+        half_length: half the line's length [m], passed to `wrist_line`.
+        speed: the line's cruise speed [m/s], passed to `wrist_line`.
         progress: called with one line of text after each stage (for a progress display).
     """
     unknown = [m for m in methods if m not in METHODS]
