@@ -101,7 +101,7 @@ window.addEventListener('message', ev => {
 next();
 </script></body></html>
 """
-SPHINX_ROLE = re.compile(r":(?:py:)?(?:class|meth|func|mod|data|attr|exc|obj|ref|doc):`")
+SPHINX_ROLE = re.compile(r":(?:py:)?(?:class|meth|func|mod|data|attr|exc|obj|ref|doc):(?:`|<code)")
 OUTSIDE_FILES = re.compile(r"DESIGN\.md|/work/|shared/", re.IGNORECASE)
 
 

@@ -1,6 +1,6 @@
 """01 — The RPR worked example: the Jacobian derived by hand against the library.
 
-The arm of DESIGN.md §1 (standard DH, A_i = Rz(θ) Tz(d) Tx(a) Rx(α)):
+The arm of the worked example in the documentation (standard DH, A_i = Rz(θ) Tz(d) Tx(a) Rx(α)):
 
     joint 1  revolute   θ = q1  d = d1  a = 0  α = +90°
     joint 2  prismatic  θ = 0   d = q2  a = 0  α = 0

@@ -113,7 +113,9 @@ def _plot(us, err_p, qd, arm) -> None:
     ax[1].set_xlabel("t [s]")
     ax[1].set_ylabel("position error [mm]")
     ax[1].set_title("tracking a moving target")
-    ax[2].plot(t, qd / arm.vmax)
+    for i, name in enumerate(arm.joint_names):
+        ax[2].plot(t, qd[:, i] / arm.vmax[i], label=name)
+    ax[2].legend(fontsize=7, ncol=2)
     ax[2].set_xlabel("t [s]")
     ax[2].set_ylabel("q̇_i / vmax_i")
     ax[2].set_title("joint velocities (Ruckig-smoothed)")

@@ -30,27 +30,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import mujoco  # noqa: E402
 
+from ratectl.cli.demo import wrist_line  # noqa: E402
 from ratectl.interop.mujoco import render_frames, simulate, to_mjcf  # noqa: E402
-
-
-def wrist_line(arm):
-    """A 0.3 m line at constant orientation through a pose 0.01 rad from the wrist singularity."""
-    q_mid = np.array([0.2, -1.4, 1.6, -1.8, 0.01, 0.3])
-    T_mid = arm.fk(q_mid)
-    T0, T1 = T_mid.copy(), T_mid.copy()
-    T0[0, 3] -= 0.15
-    T1[0, 3] += 0.15
-    q0 = q_mid.copy()
-    for _ in range(100):  # damped Newton onto the start pose
-        e = rc.spatial.pose_error(T0, arm.fk(q0))
-        q0 = q0 + 0.5 * np.linalg.lstsq(arm.jacobian(q0), e, rcond=None)[0]
-    return rc.paths.Line(T0, T1, speed=0.2, acceleration=1.0), q0
 
 
 def main():
     OUT.mkdir(exist_ok=True)
-    arm = rc.robots.ur5e()
-    path, q0 = wrist_line(arm)
+    scenario = wrist_line("ur5e")              # the line of `ratectl demo`, 0.01 rad from q5 = 0
+    arm, path, q0 = scenario.chain, scenario.path, scenario.q0
     dt = 0.01
     run = rc.follow(arm, path, q0, dt=dt)                      # kinematic run (governor)
     xml = to_mjcf(arm, actuators="position", floor=True)
@@ -88,7 +75,17 @@ def main():
         frames = render_frames(model, data, arm, sim.q[picks], width=320 if FAST else 400,
                                height=240 if FAST else 300, lookat=(-0.3, -0.15, 0.3), distance=1.6,
                                azimuth=150.0, elevation=-20.0)
-        plt.imsave(OUT / "07_mujoco_simulation_frames.png", np.concatenate(frames, axis=1))
+        s_done = np.array([path.closest(T[:3, 3]) for T in sim.poses[picks]])
+        ffig, fax = plt.subplots(1, len(frames), figsize=(3.2 * len(frames), 2.9))
+        for k, (axk, frame) in enumerate(zip(np.atleast_1d(fax), frames, strict=True)):
+            axk.imshow(frame)
+            axk.set_axis_off()
+            axk.set_title(f"t = {sim.t[picks[k]]:.2f} s\n{s_done[k] * 1e3:.0f} of {path.length * 1e3:.0f} mm "
+                          f"along the line, q5 = {sim.q[picks[k], 4]:+.3f} rad", fontsize=8)
+        ffig.suptitle("MuJoCo (position servos) following the wrist line: rendered frames", fontsize=10)
+        ffig.tight_layout(rect=(0, 0, 1, 0.9))
+        ffig.savefig(OUT / "07_mujoco_simulation_frames.png", dpi=100)
+        plt.close(ffig)
         rendered = f"rendered {len(frames)} frames with MUJOCO_GL={GL}"
 
     print(run.summary())

@@ -2,11 +2,15 @@
 
 A UR5e (exported to MJCF with a 6 cm ball just below the straight line to the goal)
 is driven to a goal pose by ``rc.ResolvedRateController``. The kinematics come from
-MuJoCo through ``mink.Configuration`` (``MinkKinematics``). With no limits the wrist
-runs through the ball; with ``mink.CollisionAvoidanceLimit`` turned into velocity rows
+MuJoCo through ``mink.Configuration`` (``MinkKinematics``). With no limits the tool
+passes above the ball but a link of the arm (the forearm or wrist, whichever is
+nearest) runs through it; with ``mink.CollisionAvoidanceLimit`` turned into velocity rows
 of ratectl's QP (``MinkLimitedSolver``) it goes around it at the 2 cm margin and still
-reaches the goal. Saves a plot (and a GIF of the avoiding motion where an offscreen
-OpenGL context exists) under ``examples/out/`` and prints a summary.
+reaches the goal. The plot shows the smallest link–ball distance over time and, in the
+y–z plane, the arm at its closest approach in both runs with the path of the arm's
+point nearest the ball (not only the tool path, which never touches the ball). Saves a
+plot (and a GIF of the avoiding motion where an offscreen OpenGL context exists) under
+``examples/out/`` and prints a summary.
 
 ``RATECTL_FAST=1``: fewer GIF frames (a few seconds).
 """
@@ -32,7 +36,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import mink  # noqa: E402
 import mujoco  # noqa: E402
 
-from ratectl.interop.mujoco import MinkKinematics, MinkLimitedSolver, geom_distance, render_frames, to_mjcf  # noqa: E402
+from ratectl.interop.mujoco import MinkKinematics, MinkLimitedSolver, render_frames, to_mjcf  # noqa: E402
 
 MARGIN = 0.02      # configured minimum distance [m]
 DT = 0.01          # control period [s]
@@ -49,9 +53,11 @@ def run(model, arm, q0, goal, links, *, avoid: bool):
     solver = MinkLimitedSolver(kin, limits)
     ctrl = rc.ResolvedRateController(kin, solver=solver, gain=2.0)
     data = mujoco.MjData(model)
-    pairs = [(g, "ball") for g in links]
+    ball = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "ball")
+    ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in links]
+    fromto = np.zeros(6)
     q = q0.copy()
-    qs, dist, tool, bound = [q.copy()], [], [], 0
+    qs, dist, tool, near, near_link, bound = [q.copy()], [], [], [], [], 0
     for _ in range(STEPS):
         cmd = ctrl.step(q, target=goal, dt=DT)
         if cmd.solve is not None and np.any(cmd.solve.info.get("extra_active", False)):
@@ -60,9 +66,16 @@ def run(model, arm, q0, goal, links, *, avoid: bool):
         qs.append(q.copy())
         data.qpos[:] = q
         mujoco.mj_kinematics(model, data)
-        dist.append(geom_distance(model, data, pairs))
+        best = (np.inf, None, None)
+        for name, gid in zip(links, ids, strict=True):
+            d = mujoco.mj_geomDistance(model, data, gid, ball, 1.0, fromto)
+            if d < best[0]:
+                best = (d, name, fromto[:3].copy())      # the point on the link
+        dist.append(best[0])
+        near.append(best[2])
+        near_link.append(best[1])
         tool.append(arm.fk(q)[:3, 3])
-    return np.array(qs), np.array(dist), np.array(tool), cmd, bound
+    return np.array(qs), np.array(dist), np.array(tool), np.array(near), near_link, cmd, bound
 
 
 def main():
@@ -80,11 +93,13 @@ def main():
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) for i in range(model.ngeom)]
     links = [g for g in names if g and g.startswith("link")]
 
-    q_free, d_free, p_free, c_free, _ = run(model, arm, q0, goal, links, avoid=False)
-    q_safe, d_safe, p_safe, c_safe, bound = run(model, arm, q0, goal, links, avoid=True)
+    q_free, d_free, p_free, n_free, l_free, c_free, _ = run(model, arm, q0, goal, links, avoid=False)
+    q_safe, d_safe, p_safe, n_safe, l_safe, c_safe, bound = run(model, arm, q0, goal, links, avoid=True)
+    k_free, k_safe = int(np.argmin(d_free)), int(np.argmin(d_safe))
+    hit = l_free[k_free]
     t = np.arange(1, STEPS + 1) * DT
 
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, ax = plt.subplots(1, 2, figsize=(13, 4.8))
     ax[0].plot(t, d_free * 1e3, label="no collision rows")
     ax[0].plot(t, d_safe * 1e3, label="mink CollisionAvoidanceLimit rows")
     ax[0].axhline(MARGIN * 1e3, color="k", ls=":", lw=1, label="margin 20 mm")
@@ -93,14 +108,23 @@ def main():
     ax[0].set_ylabel("smallest link–ball distance [mm]")
     ax[0].set_ylim(-30, 150)
     ax[0].legend()
-    ax[1].plot(p_free[:, 1], p_free[:, 2], label="no collision rows")
-    ax[1].plot(p_safe[:, 1], p_safe[:, 2], label="with collision rows")
     ax[1].add_patch(plt.Circle((centre[1], centre[2]), radius, color="tab:red", alpha=0.4, label="ball"))
+    for q_run, k, n_run, p_run, colour, name in (
+            (q_free, k_free, n_free, p_free, "C0", "no collision rows"),
+            (q_safe, k_safe, n_safe, p_safe, "C1", "with collision rows")):
+        o = rc.robots.ur5e().frames(q_run[k + 1])[:, :3, 3]          # joint origins at the closest approach
+        ax[1].plot(o[:, 1], o[:, 2], "-o", color=colour, lw=2.5, ms=3, alpha=0.8,
+                   label=f"arm at its closest approach ({name})")
+        ax[1].plot(n_run[:, 1], n_run[:, 2], ":", color=colour, lw=1.2)
+        ax[1].plot(p_run[:, 1], p_run[:, 2], "--", color=colour, lw=0.8, alpha=0.6)
+    ax[1].plot([], [], "k:", lw=1.2, label="path of the arm's point nearest the ball")
+    ax[1].plot([], [], "k--", lw=0.8, alpha=0.6, label="tool path")
+    ax[1].plot(n_free[k_free, 1], n_free[k_free, 2], "rx", ms=9, mew=2, label=f"collision ({hit})")
     ax[1].plot([T0[1, 3], goal[1, 3]], [T0[2, 3], goal[2, 3]], "ko", ms=4)
-    ax[1].set_xlabel("tool y [m]")
-    ax[1].set_ylabel("tool z [m]")
+    ax[1].set_xlabel("y [m] (arm projected on the y–z plane)")
+    ax[1].set_ylabel("z [m]")
     ax[1].set_aspect("equal")
-    ax[1].legend(fontsize=8)
+    ax[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     fig.suptitle("UR5e reaching past a ball: ratectl QP + mink collision rows (MuJoCo kinematics)")
     fig.tight_layout()
     fig.savefig(OUT / "08_obstacle_avoidance.png", dpi=110)
@@ -124,7 +148,8 @@ def main():
     err_free = np.linalg.norm(rc.spatial.pose_error(goal, arm.fk(q_free[-1]))[:3])
     err_safe = np.linalg.norm(rc.spatial.pose_error(goal, arm.fk(q_safe[-1]))[:3])
     print(f"without collision rows: min distance {d_free.min() * 1e3:+.1f} mm "
-          f"({'COLLISION' if d_free.min() < 0 else 'clear'}), goal error {err_free * 1e3:.3f} mm")
+          f"({'COLLISION of ' + hit if d_free.min() < 0 else 'clear'}, at t = {(k_free + 1) * DT:.2f} s), "
+          f"goal error {err_free * 1e3:.3f} mm")
     print(f"with collision rows:    min distance {d_safe.min() * 1e3:+.1f} mm "
           f"(margin {MARGIN * 1e3:.0f} mm), goal error {err_safe * 1e3:.3f} mm, "
           f"a collision row bound on {bound} of {STEPS} steps")

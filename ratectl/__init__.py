@@ -4,19 +4,19 @@ The package follows the data flow of a control cycle, one subpackage per stage:
 
     model ─► kinematics ─► singularity ─► solvers ─► control ─► paths/planning ─► execution
 
-* :mod:`ratectl.model` — joints (DH, MDH), the :class:`Chain`, built-in robots, limits;
-* :mod:`ratectl.io` — URDF and MJCF readers behind a safe XML parser;
-* :mod:`ratectl.kinematics` — generated fk/Jacobian kernels, J̇, the Hessian;
-* :mod:`ratectl.singularity` — measures, classification, reports, scans, maps;
-* :mod:`ratectl.solvers` — exact, pseudo-inverse, damped, null-space and QP inverse velocity;
-* :mod:`ratectl.control` — the resolved-rate controller, its command, Ruckig smoothing;
-* :mod:`ratectl.paths` — lines, arcs, blended waypoints and their time laws;
-* :mod:`ratectl.planning` — inverse kinematics, joint paths, the path-speed governor;
-* :mod:`ratectl.drivers` — the robot interface: the driver protocol, franky, a scripted arm;
-* :mod:`ratectl.execution` — :func:`follow`, :func:`run` (real time, on a driver) and the
-  :class:`Execution` record;
-* :mod:`ratectl.interop` — MuJoCo and mink;
-* :mod:`ratectl.cli` — the ``ratectl`` command and its demo.
+* `ratectl.model` — joints (DH, MDH), the `Chain`, built-in robots, limits;
+* `ratectl.io` — URDF and MJCF readers behind a safe XML parser;
+* `ratectl.kinematics` — generated fk/Jacobian kernels, J̇, the Hessian;
+* `ratectl.singularity` — measures, classification, reports, scans, maps;
+* `ratectl.solvers` — exact, pseudo-inverse, damped, null-space and QP inverse velocity;
+* `ratectl.control` — the resolved-rate controller, its command, Ruckig smoothing;
+* `ratectl.paths` — lines, arcs, blended waypoints and their time laws;
+* `ratectl.planning` — inverse kinematics, joint paths, the path-speed governor;
+* `ratectl.drivers` — the robot interface: the driver protocol, franky, a scripted arm;
+* `ratectl.execution` — `follow`, `run` (real time, on a driver) and the
+  `Execution` record;
+* `ratectl.interop` — MuJoCo and mink;
+* `ratectl.cli` — the ``ratectl`` command and its demo.
 
 The core (model, kinematics, spatial, errors) is imported eagerly; the rest on first
 use, so ``import ratectl`` stays cheap and optional extras (matplotlib, mujoco) are

@@ -1,6 +1,6 @@
 """Errors raised by ratectl.
 
-Every error derives from :class:`RatectlError`. Messages say what was wrong and
+Every error derives from `RatectlError`. Messages say what was wrong and
 what is allowed; the objects carry the numbers behind the message as attributes
 so that a program can react without parsing text.
 """
@@ -96,7 +96,7 @@ class ImportModelError(ModelError):
 
 
 class DriverError(RatectlError, RuntimeError):
-    """A robot interface (a :mod:`ratectl.drivers` driver) failed: it cannot connect, the
+    """A robot interface (a `ratectl.drivers` driver) failed: it cannot connect, the
     robot refused a command, or the connection was lost.
 
     Attributes:

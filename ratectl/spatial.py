@@ -9,7 +9,7 @@ Conventions (fixed across the package):
 * Every function accepts leading batch dimensions: a rotation is ``(..., 3, 3)``,
   a transform ``(..., 4, 4)``, a vector ``(..., 3)``.
 
-Accuracy: :func:`so3_log` and :func:`so3_exp` use series near angle 0 and the
+Accuracy: `so3_log` and `so3_exp` use series near angle 0 and the
 symmetric part of ``R`` near angle π, so they stay accurate to machine precision
 over the whole range; no ``arccos`` of an unclipped value is ever taken.
 """
@@ -80,7 +80,7 @@ def skew(v) -> np.ndarray:
 
 
 def vee(S) -> np.ndarray:
-    """Inverse of :func:`skew` for the skew part of ``S``: returns ``(..., 3)``."""
+    """Inverse of `skew` for the skew part of ``S``: returns ``(..., 3)``."""
     S = _as_array(S, "S", (3, 3))
     return 0.5 * np.stack(
         [S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]],
@@ -171,7 +171,7 @@ def rotation_angle(R) -> np.ndarray:
 
 
 def so3_log(R) -> np.ndarray:
-    """Rotation vector ``w = θ·axis`` of a rotation matrix (inverse of :func:`so3_exp`).
+    """Rotation vector ``w = θ·axis`` of a rotation matrix (inverse of `so3_exp`).
 
     θ = atan2(‖vee(R)‖, (tr R − 1)/2) is accurate everywhere. Away from π the axis
     comes from the skew part, ``w = θ/sin θ · vee(R)``; near π (where that part
@@ -228,7 +228,7 @@ def se3_exp(xi) -> np.ndarray:
 
 
 def se3_log(T) -> np.ndarray:
-    """Twist ``ξ = [v; ω]`` with ``se3_exp(ξ) = T`` (inverse of :func:`se3_exp`)."""
+    """Twist ``ξ = [v; ω]`` with ``se3_exp(ξ) = T`` (inverse of `se3_exp`)."""
     T = _as_array(T, "T", (4, 4))
     w = so3_log(T[..., :3, :3])
     th2 = np.einsum("...i,...i->...", w, w)
@@ -251,7 +251,7 @@ def pose_error(T_desired, T_actual) -> np.ndarray:
     The rotational part is the rotation vector that takes the actual orientation to
     the desired one, expressed in the base frame [rad] (exact, accurate near π); the
     linear part [m]. This is the one pose error of the package: the controller, IK,
-    the governor and ``follow`` all call it (or :func:`pose_error_into`, its scalar
+    the governor and ``follow`` all call it (or `pose_error_into`, its scalar
     form).
     """
     Td = _as_array(T_desired, "T_desired", (4, 4))
@@ -266,12 +266,12 @@ def pose_error(T_desired, T_actual) -> np.ndarray:
 
 
 def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray) -> tuple[float, float]:
-    """:func:`pose_error` of one pair of (4, 4) poses written into ``out`` (6,).
+    """`pose_error` of one pair of (4, 4) poses written into ``out`` (6,).
 
     Returns ``(‖p_d − p‖ [m], θ [rad])``, the norms of the two parts. The scalar
     arithmetic avoids numpy's per-call cost on 3-vectors (this runs every control
     cycle); the rotation angle is ``atan2(‖vee(R)‖, (tr R − 1)/2)`` and, past
-    ``cos θ < −0.9``, the axis comes from :func:`so3_log`'s symmetric-part branch.
+    ``cos θ < −0.9``, the axis comes from `so3_log`'s symmetric-part branch.
     """
     out[0] = T_desired[0, 3] - T_actual[0, 3]
     out[1] = T_desired[1, 3] - T_actual[1, 3]

@@ -1,4 +1,4 @@
-"""The public names of DESIGN.md §5, called exactly as written there."""
+"""The public names of the package, called exactly as the README and the guides write them."""
 
 import numpy as np
 

@@ -1,1 +1,1 @@
-"""The ``ratectl`` command (:mod:`~ratectl.cli.main`) and its demo (:mod:`~ratectl.cli.demo`)."""
+"""The ``ratectl`` command (`main`) and its demo (`demo`)."""

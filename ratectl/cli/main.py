@@ -119,7 +119,7 @@ _VALUE_HELP = ("a joint value is a number (1.57, -0.5, 2e-3), optionally times p
 
 
 def _number(w: str) -> float:
-    """One joint value by the grammar of :func:`parse_q`; raises ``_Fail`` naming the token."""
+    """One joint value by the grammar of `parse_q`; raises ``_Fail`` naming the token."""
     s = w.strip()
     m = _VALUE.fullmatch(s)
     if m is None:

@@ -1,10 +1,10 @@
 """Control: the resolved-rate controller, its command, and Ruckig smoothing.
 
-* :mod:`~ratectl.control.controller` — :class:`ResolvedRateController`, one ``step`` per cycle;
-* :mod:`~ratectl.control.command` — :class:`Command` and the status vocabulary;
-* :mod:`~ratectl.control.smoothing` — the Ruckig velocity filter, joint moves and stops.
+* `controller` — `ResolvedRateController`, one ``step`` per cycle;
+* `command` — `Command` and the status vocabulary;
+* `smoothing` — the Ruckig velocity filter, joint moves and stops.
 
-Braking toward position limits lives with the limits (:mod:`ratectl.model.limits`).
+Braking toward position limits lives with the limits (`ratectl.model.limits`).
 """
 
 from __future__ import annotations

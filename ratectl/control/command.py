@@ -1,4 +1,4 @@
-"""What one controller cycle returns: :class:`Command`, and the status vocabulary."""
+"""What one controller cycle returns: `Command`, and the status vocabulary."""
 
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ class Command:
         qd: commanded joint velocity (n,) [rad/s or m/s].
         q_next: joint positions after one period, q + q̇ dt (or the smoother's exact integral).
         qdd: joint acceleration of the command (n,): (q̇ − q̇_prev)/dt, or the smoother's.
-        status: one of :data:`STATUSES`; flags: every status that applies this cycle.
+        status: one of `STATUSES`; flags: every status that applies this cycle.
         reason: a sentence explaining a non-regular status ("" when regular).
         error: pose error e = [p_d − p; log(R_d Rᵀ)] (6,) (zeros without a target).
         position_error: ‖p_d − p‖ [m]; orientation_error: ‖log(R_d Rᵀ)‖ [rad].
@@ -50,8 +50,8 @@ class Command:
         velocity_scale: uniform factor applied for vmax (1 = none).
         limits_active: kinds of limit that bound: subset of ("velocity", "acceleration", "position").
         time: controller clock at the start of the cycle [s]; dt: the period [s].
-        solve: the solver's full :class:`~ratectl.solvers.SolveResult` (None when halted).
-        kind: (lazy) the singularity kind at q from :func:`ratectl.analyze`, computed on first
+        solve: the solver's full `SolveResult` (None when halted).
+        kind: (lazy) the singularity kind at q from `ratectl.analyze`, computed on first
             access only (it costs an SVD); None when unavailable.
     """
 
@@ -81,7 +81,7 @@ class Command:
     @cached_property
     def kind(self) -> str | None:
         """Singularity kind at the cycle's q ("regular", "wrist", "elbow", "shoulder",
-        "boundary", "rank-deficient"), from :func:`ratectl.analyze`; None if unavailable
+        "boundary", "rank-deficient"), from `ratectl.analyze`; None if unavailable
         (a Command built by hand knows no chain)."""
         d = self.__dict__
         return _kind_of(d.get("_chain"), d.get("_q"))
@@ -112,11 +112,11 @@ def _readonly(a) -> np.ndarray:
 
 
 def make_command(*, chain=None, q=None, **fields) -> Command:
-    """A :class:`Command` from the controller's freshly computed arrays, which it owns
+    """A `Command` from the controller's freshly computed arrays, which it owns
     (they are made read-only in place, not copied — the controller keeps no reference to
     them): the fast path of one control cycle (the dataclass ``__init__`` costs ~4 µs).
     ``chain`` and ``q`` (the cycle's configuration) are kept, outside the dataclass
-    fields, for the lazy :attr:`Command.kind`."""
+    fields, for the lazy `Command.kind`."""
     cmd = object.__new__(Command)
     for name in _OWNED:
         fields[name].flags.writeable = False

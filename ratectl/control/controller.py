@@ -16,14 +16,14 @@ d = q_max − q, and the same towards q_min). A solver that enforces the limits 
 smooths the result with a Ruckig velocity filter (jerk-limited) and integrates
 ``q_next = q + q̇ dt`` (or Ruckig's exact integral).
 
-Every call returns a frozen :class:`Command` whose ``status`` says what happened
-(see :data:`STATUSES`). Bad *values* never raise in the loop: a non-finite q,
+Every call returns a frozen `Command` whose ``status`` says what happened
+(see `STATUSES`). Bad *values* never raise in the loop: a non-finite q,
 target, twist or dt, a target older than ``timeout``, or a solver failure brings a
 **safe halt** — the previous q̇ decelerates to zero within the acceleration (and, with
 smoothing, jerk) limits — with the reason in ``Command.reason``. A non-finite input
-latches the halt until :meth:`ResolvedRateController.reset`; a stale target or a
+latches the halt until `ResolvedRateController.reset`; a stale target or a
 solver failure does not (the next good cycle resumes). Wrong *shapes* are programming
-errors and raise :class:`~ratectl.errors.InputError` at once.
+errors and raise `InputError` at once.
 """
 
 from __future__ import annotations
@@ -76,14 +76,14 @@ class ResolvedRateController:
     """A stateful resolved-rate controller for a user's control loop.
 
     Args:
-        chain: the arm (:class:`~ratectl.chain.Chain`).
+        chain: the arm (`Chain`).
         solver: an inverse-velocity solver with ``.solve(J, xi, limits=, q=, qd_prev=, dt=)``
-            (default: :func:`default_solver`). The controller keeps the solver object, so a QP
+            (default: `default_solver`). The controller keeps the solver object, so a QP
             solver stays warm-started between cycles.
         gain: feedback gain K [1/s] on the pose error: a scalar or 6 values [linear ×3; angular ×3].
         limits: ``"chain"`` (the chain's position, velocity, acceleration limits), ``None``
             (no limits) or an object with arrays ``lower, upper, vmax, amax``.
-        smoothing: ``False``; ``True`` (a Ruckig :class:`~ratectl.smoothing.VelocityFilter` with the
+        smoothing: ``False``; ``True`` (a Ruckig `VelocityFilter` with the
             chain's vmax, amax, jmax); or a ``VelocityFilter``.
         position_tolerance [m], orientation_tolerance [rad]: "target reached" thresholds.
         timeout: a target whose ``stamp`` is older than this [s] is stale (halt).
@@ -197,14 +197,14 @@ class ResolvedRateController:
 
     @property
     def halted(self) -> bool:
-        """True while a latched halt (non-finite input) is in force; cleared by :meth:`reset`."""
+        """True while a latched halt (non-finite input) is in force; cleared by `reset`."""
         return bool(self._latched)
 
     # ------------------------------------------------------------------ the cycle
     def step(self, q, *, target=None, twist=None, dt, qd_ff=None, qdd_ff=None, stamp=None) -> Command:
         """One control cycle (see the module docstring): the stages
-        :meth:`_validate` → :meth:`_halt_reason` → :meth:`_error` → :meth:`_solve` →
-        :meth:`_limit` → :meth:`_smooth` → :meth:`_command`.
+        `_validate` → `_halt_reason` → `_error` → `_solve` →
+        `_limit` → `_smooth` → `_command`.
 
         Args:
             q: measured joint positions (n,).
@@ -241,7 +241,7 @@ class ResolvedRateController:
     def _validate(self, q, target, twist, dt, qd_ff):
         """Shapes and types: returns ``(q, target, twist, dt, qd_ff)`` as float arrays
         (the caller's arrays are not copied when already float64) or raises
-        :class:`~ratectl.errors.InputError`. Values (NaN, inf) are not checked here."""
+        `InputError`. Values (NaN, inf) are not checked here."""
         n = self._n
         if type(q) is not np.ndarray or q.dtype != np.float64:
             try:
@@ -275,7 +275,7 @@ class ResolvedRateController:
 
     def _halt_reason(self, q, target, twist, dt, qd_ff, stamp) -> Command | None:
         """Values that bring a safe halt (non-finite inputs latch it, a stale target does
-        not): returns the halt's :class:`Command`, or None when the cycle may proceed."""
+        not): returns the halt's `Command`, or None when the cycle may proceed."""
         if not (dt > 0.0 and math.isfinite(dt)):
             self._latched = self._latched or f"non-finite or non-positive dt ({dt!r})"
             return self._halt(q, self._dt_last or 1e-3, self._latched)
@@ -459,7 +459,7 @@ class ResolvedRateController:
 
     # --- stage 6: the command
     def _command(self, cyc: _Cycle, q, dt) -> Command:
-        """Update the controller state and return the cycle's frozen :class:`Command`
+        """Update the controller state and return the cycle's frozen `Command`
         (its arrays are read-only and not shared with the controller's state)."""
         qd = cyc.qd
         self._qd = qd.copy()
@@ -489,10 +489,10 @@ class ResolvedRateController:
 
         From the filter's state (v, a) the worst case one period ahead towards a limit is
         a₁ = min(a + J·dt, A), v₁ = v + a·dt + J·dt²/2 after travelling v·dt + a·dt²/2 +
-        J·dt³/6. If the jerk-limited stop from (v₁, a₁) (:func:`~ratectl.smoothing.
+        J·dt³/6. If the jerk-limited stop from (v₁, a₁) (`
         stopping_distance`) no longer fits in the room left, the command towards that
         limit is 0 now (Ruckig then brakes time-optimally); otherwise it is at most
-        :func:`~ratectl.smoothing.braking_speed` of the room. The same mirrored towards
+        `braking_speed` of the room. The same mirrored towards
         the lower limit. Returns (q̇, braking): the joints that must stop, which the filter
         then moves time-optimally on their own instead of synchronised with the others."""
         f = self.filter

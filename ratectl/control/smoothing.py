@@ -1,14 +1,14 @@
 """Ruckig smoothing: jerk-limited joint commands.
 
-* :class:`VelocityFilter` — an online filter for a control loop. Every cycle it takes
+* `VelocityFilter` — an online filter for a control loop. Every cycle it takes
   the desired joint velocity and returns the next state of a jerk-limited motion
   that moves towards it (Ruckig's *velocity interface*): |q̇| ≤ vmax, |q̈| ≤ amax and
   |q⃛| ≤ jmax per joint, and the position is the exact integral of that motion.
-* :func:`move` — a state-to-state joint move (Ruckig's position interface, no
+* `move` — a state-to-state joint move (Ruckig's position interface, no
   intermediate waypoints): from a joint state to a goal at rest, time-optimal and
   jerk-limited, all joints synchronised. Used to go to the start of a path.
-* :func:`stop` — the jerk-limited motion that brings a moving joint state to rest.
-* :func:`stopping_distance` and :func:`braking_speed` — the closed forms of that stop
+* `stop` — the jerk-limited motion that brings a moving joint state to rest.
+* `stopping_distance` and `braking_speed` — the closed forms of that stop
   per joint (how far a jerk-limited joint travels before it is at rest, and the speed
   from which it can still stop within a distance); the controller uses them to keep a
   smoothed joint inside its position range.
@@ -41,7 +41,7 @@ def _limit_array(value, n: int, name: str) -> np.ndarray:
 class VelocityFilter:
     """Online jerk-limited velocity filter (Ruckig velocity interface), one per control loop.
 
-    Each :meth:`update` advances the filter state by one period ``dt`` towards the
+    Each `update` advances the filter state by one period ``dt`` towards the
     target velocity (clipped to ±vmax) — and target acceleration, if given — with
     |q̈| ≤ amax and |q⃛| ≤ jmax. Ruckig's ``minimum_duration`` is set to ``dt``, so a
     target state that is reachable within one period is met exactly at the next cycle

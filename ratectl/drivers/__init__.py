@@ -1,17 +1,17 @@
 """Drivers: the robot as the control loop sees it.
 
-* :mod:`~ratectl.drivers.base` — the :class:`Driver` protocol (``chain``, ``read()`` →
-  :class:`RobotState`, ``command(qd)``, ``stop()``) and the rules a driver keeps;
-* :mod:`~ratectl.drivers.scripted` — :class:`ScriptedDriver`, a kinematic arm with
+* `base` — the `Driver` protocol (``chain``, ``read()`` →
+  `RobotState`, ``command(qd)``, ``stop()``) and the rules a driver keeps;
+* `scripted` — `ScriptedDriver`, a kinematic arm with
   injectable faults (for tests, and the template for a new driver);
-* :mod:`~ratectl.drivers.franka` — :class:`FrankyDriver`, Franka arms over franky
+* `franka` — `FrankyDriver`, Franka arms over franky
   (``franky`` is imported only when one is made);
 * ``MujocoDriver`` — a MuJoCo model stepping its physics. It lives in
-  :mod:`ratectl.interop.mujoco.driver` (MuJoCo interop sits above this layer) and is
+  `ratectl.interop.mujoco.driver` (MuJoCo interop sits above this layer) and is
   re-exported here lazily: ``rc.drivers.MujocoDriver`` imports it, and ``mujoco``, on
   first use.
 
-:func:`ratectl.run` drives any of them.
+`ratectl.run` drives any of them.
 """
 
 from __future__ import annotations

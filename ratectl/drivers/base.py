@@ -1,10 +1,10 @@
-"""The driver protocol: what :func:`ratectl.run` needs from a robot.
+"""The driver protocol: what `ratectl.run` needs from a robot.
 
 A driver is the robot as the control loop sees it — four members:
 
-* ``chain`` — the arm's model (:class:`ratectl.Chain`), with the limits the robot itself
+* ``chain`` — the arm's model (`ratectl.Chain`), with the limits the robot itself
   enforces;
-* ``read()`` → :class:`RobotState` — the latest measured state: a time stamp on the
+* ``read()`` → `RobotState` — the latest measured state: a time stamp on the
   robot's clock [s] and the joint positions q and velocities q̇ as measured;
 * ``command(qd)`` — stream a joint velocity q̇ (n,) [rad/s or m/s]; the robot holds it until
   the next command (or, on robots with a hold time, briefly, then stops by itself);
@@ -16,7 +16,7 @@ Rules a driver keeps, which the loop relies on:
    arrived it returns the last one again, *with its old stamp*: the loop decides from the
    stamps whether the state is fresh, and halts when it is not fresh for ``timeout``.
 2. Stamps of fresh samples increase strictly.
-3. A failure of the robot's own library is raised as :class:`ratectl.errors.DriverError`
+3. A failure of the robot's own library is raised as `ratectl.errors.DriverError`
    (with the original exception as ``cause``); the loop turns it into a safe halt.
 """
 
@@ -68,9 +68,9 @@ class RobotState:
 
 @runtime_checkable
 class Driver(Protocol):
-    """A robot (or a simulator of one) that :func:`ratectl.run` can drive.
+    """A robot (or a simulator of one) that `ratectl.run` can drive.
 
-    See the module docstring for the rules; :class:`~ratectl.drivers.ScriptedDriver` is a
+    See the module docstring for the rules; `ScriptedDriver` is a
     complete example in a few dozen lines.
     """
 

@@ -1,12 +1,12 @@
-"""Franka arms (FR3, Panda) over the libfranka network protocol: :class:`FrankyDriver`.
+"""Franka arms (FR3, Panda) over the libfranka network protocol: `FrankyDriver`.
 
 Built on `franky <https://github.com/TimSchneider42/franky>`_ (``pip install
-ratectl[franka]``; ``franky`` is imported only when a :class:`FrankyDriver` is made). It
+ratectl[franka]``; ``franky`` is imported only when a `FrankyDriver` is made). It
 works the same against a real arm and against ``franky-sim``, a simulated FR3 served on
 loopback.
 
 * The model comes from the robot itself: ``robot.model_urdf`` →
-  :meth:`ratectl.Chain.from_urdf` with the flange link as tip (``link8``), then the tool.
+  `ratectl.Chain.from_urdf` with the flange link as tip (``link8``), then the tool.
 * The limits are the ones franky enforces: ``robot.joint_velocity_limit``,
   ``joint_acceleration_limit`` and ``joint_jerk_limit``, times the dynamics factor. On the
   FR3 these are 2.175 rad/s on joints 1–4 (the URDF says 2.62): franky refuses a faster
@@ -16,7 +16,7 @@ loopback.
   stops by itself after the hold.
 * ``read()`` returns ``robot.state``: the stamp is the robot's own clock (1 ms resolution),
   q and q̇ as measured. While a motion runs, franky serves the state of its control thread
-  — if the connection dies, the stamp stops advancing and :func:`ratectl.run`'s watchdog
+  — if the connection dies, the stamp stops advancing and `ratectl.run`'s watchdog
   halts.
 * ``stop()`` runs franky's ``JointVelocityStopMotion`` (a jerk-limited stop) and waits
   for it up to ``stop_timeout``.
@@ -54,7 +54,7 @@ def franky_chain(urdf: str, *, flange: str = "link8", tool=None, vmax=None, amax
     after the URDF's own fixed transforms up to the flange) and the given per-joint limits
     (None keeps the URDF's).
 
-    Separate from :class:`FrankyDriver` so that it can be checked without a robot.
+    Separate from `FrankyDriver` so that it can be checked without a robot.
     """
     chain = Chain.from_urdf(urdf, tip=flange)
     joints = []
@@ -84,7 +84,7 @@ class FrankyDriver:
             ``hold_target_duration``, whole milliseconds); afterwards it stops by itself.
         realtime: require a real-time kernel (franky's ``RealtimeConfig.Enforce``); the default
             ignores it (a simulator, a development machine).
-        stop_timeout: how long :meth:`stop` waits for the arm to come to rest [s].
+        stop_timeout: how long `stop` waits for the arm to come to rest [s].
         connect_timeout: how long to keep trying to get the robot's first state [s].
         robot: an already connected ``franky.Robot`` to use instead of connecting.
 
@@ -330,7 +330,7 @@ class FrankySim:
 
     def kill(self) -> None:
         """Kill the server at once (a robot that disappears); returns without waiting for the
-        process to end (:meth:`close` reaps it)."""
+        process to end (`close` reaps it)."""
         if self.process.poll() is None:
             self.process.kill()
 

@@ -1,10 +1,10 @@
-"""A scripted kinematic robot for tests: :class:`ScriptedDriver`.
+"""A scripted kinematic robot for tests: `ScriptedDriver`.
 
 The arm integrates the commanded joint velocity exactly over wall-clock time,
 
     q(t) = q_k + q̇_k · (t − t_k)          (t_k: time of the last command q̇_k),
 
-and serves it through the :class:`~ratectl.drivers.Driver` protocol, with faults that can
+and serves it through the `Driver` protocol, with faults that can
 be switched on at given times: slow reads, dropped samples, a frozen (stale) server, NaN
 in the measurement, and a connection that dies. It is also the shortest complete driver —
 a template for writing one for another robot.
@@ -31,7 +31,7 @@ class ScriptedDriver:
 
     Args:
         chain: the arm. q0: (n,) initial joint positions.
-        strict: refuse (raise :class:`~ratectl.errors.DriverError`) a command faster than the
+        strict: refuse (raise `DriverError`) a command faster than the
             chain's vmax or not finite — as real robots do.
         read_delay: every ``read()`` takes this long [s] (a slow link; it is slept).
         drop: probability that a ``read()`` returns the previous sample again, same stamp
@@ -46,7 +46,7 @@ class ScriptedDriver:
 
     Attributes:
         commands: list of ``(t, qd)`` of every accepted command.
-        stops: how many times :meth:`stop` was called.
+        stops: how many times `stop` was called.
     """
 
     def __init__(

@@ -1,10 +1,10 @@
 """Execution: running a controller over time and recording what happened.
 
-* :mod:`~ratectl.execution.path_following` — :func:`follow`, a kinematic simulation of the
+* `path_following` — `follow`, a kinematic simulation of the
   controller (and the governor) along a Cartesian path;
-* :mod:`~ratectl.execution.run` — :func:`run`, a real-time loop driving a robot through a
-  :mod:`ratectl.drivers` driver (deadlines, watchdog, safe halts);
-* :mod:`~ratectl.execution.record` — :class:`Execution`, the record every run returns.
+* `run` — `run`, a real-time loop driving a robot through a
+  `ratectl.drivers` driver (deadlines, watchdog, safe halts);
+* `record` — `Execution`, the record every run returns.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
-"""Run a resolved-rate controller along a Cartesian path: :func:`follow`.
+"""Run a resolved-rate controller along a Cartesian path: `follow`.
 
 Two modes:
 
-* ``governor=True`` (default): the path-speed governor (:mod:`ratectl.planning.governor`)
+* ``governor=True`` (default): the path-speed governor (`ratectl.planning.governor`)
   plans the joint path and a jerk-limited, limit-respecting progress s(t); each
   cycle the controller gets the planned joint velocity as feed-forward (``qd_ff``)
   and the path pose P(s_k) as target, so feedback corrects any drift. The motion
@@ -25,7 +25,7 @@ from ..control import ResolvedRateController, move
 from ..errors import InputError
 from ..paths import Path
 from ..planning import Governor, ik
-from ..spatial import pose_error
+from ..spatial import pose_error, rotation_angle
 from .record import Execution
 
 __all__ = ["follow"]
@@ -34,21 +34,21 @@ __all__ = ["follow"]
 def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle: float = 0.5,
            tolerance: tuple[float, float] = (1e-4, 1.75e-4), approach: bool = True,
            record_kinds: bool = True) -> Execution:
-    """Follow ``path`` with ``chain`` from joint positions ``q0``; returns an :class:`Execution`.
+    """Follow ``path`` with ``chain`` from joint positions ``q0``; returns an `Execution`.
 
     Args:
-        chain: the arm. path: a :class:`ratectl.paths.Path`. q0: (n,) start configuration.
+        chain: the arm. path: a `ratectl.paths.Path`. q0: (n,) start configuration.
         dt: control period [s].
-        controller: a :class:`~ratectl.controller.ResolvedRateController` (default: a new one with
+        controller: a `ResolvedRateController` (default: a new one with
             the default solver, the chain's limits and no smoothing). It is reset first.
         governor: True (default options), False (the path's time law), or a
-            :class:`~ratectl.governor.Governor` with custom options.
+            `Governor` with custom options.
         settle: time allowed after the schedule to converge on the end pose [s].
         tolerance: (position [m], orientation [rad]) for "completed" at the end pose.
         approach: if fk(q0) is not at the path start, first solve IK for the start pose and move
             there with a jerk-limited joint move (recorded in ``info["approach"]``); if False,
             such a q0 is an error.
-        record_kinds: ask :func:`ratectl.analyze` for the singularity kind on steps whose status
+        record_kinds: ask `ratectl.analyze` for the singularity kind on steps whose status
             is "damped" or "singular" (evaluated every 20 ms within such a stretch, carried
             over in between).
     """
@@ -169,7 +169,12 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
     eend = pose_error(T_end, poses[-1])
     end_p, end_o = float(np.linalg.norm(eend[:3])), float(np.linalg.norm(eend[3:]))
     reached = end_p <= pos_tol and end_o <= ori_tol
-    duration = float(t[-1])
+    # the duration ends where the end pose is reached for good (not after the settle wait)
+    end_ok = (np.linalg.norm(poses[:, :3, 3] - T_end[:3, 3], axis=1) <= pos_tol) \
+        & (rotation_angle(np.swapaxes(poses[:, :3, :3], -1, -2) @ T_end[:3, :3]) <= ori_tol)
+    late = np.flatnonzero(~end_ok)
+    arrival = min(int(late[-1]) + 1, len(t) - 1) if len(late) else 0
+    duration = float(t[arrival]) if reached else float(t[-1])
     nominal = path.duration
     if halted_reason:
         completed = False
@@ -184,7 +189,7 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
     else:
         completed = True
         message = (f"completed in {duration:.3f} s, nominal {nominal:.3f} s "
-                   f"(+{duration - nominal:.3f} s, ×{duration / nominal if nominal > 0 else 1.0:.2f})")
+                   f"({duration - nominal:+.3f} s, ×{duration / nominal if nominal > 0 else 1.0:.2f})")
     info.update({"end_position_error": end_p, "end_orientation_error": end_o,
                  "governor": repr(gov) if gov is not None else None})
     return Execution(t=t, q=Q, qd=np.array(QD), qdd=np.array(QDD), poses=poses, position_error=perr,

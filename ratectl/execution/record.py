@@ -1,6 +1,6 @@
-"""The record of an executed motion: :class:`Execution`.
+"""The record of an executed motion: `Execution`.
 
-Returned by :func:`ratectl.follow` (kinematic path following), by :func:`ratectl.run`
+Returned by `ratectl.follow` (kinematic path following), by `ratectl.run`
 (a real-time loop on a robot) and by the MuJoCo simulation; generic on purpose — arrays
 over the K recorded steps plus metadata — so any producer can fill it. Arrays that a
 producer does not have are ``None``. The record is frozen: fields are set once, by
@@ -47,7 +47,7 @@ class Execution:
         vmax, amax: (n,) joint limits used for checks and plots, or None.
         info: further numbers (e.g. the governor plan, solver names).
 
-    Attributes of a run on a robot (:func:`ratectl.run`; None or defaults elsewhere):
+    Attributes of a run on a robot (`ratectl.run`; None or defaults elsewhere):
         q_measured, qd_measured: (K, n) joint positions and velocities as the robot measured
             them (``q`` is then the same positions; ``qd`` and ``qdd`` are the *commanded*
             velocity and its change).
@@ -183,10 +183,11 @@ class Execution:
         """A few lines: completion, timing, errors, limits, statuses."""
         lines = [f"{self.source or 'execution'} of {self.chain_name or 'arm'}: "
                  f"{'completed' if self.completed else 'NOT completed'}"
-                 + (f" — {self.message}" if self.message else "")]
+                 + (f" — {self.message}" if self.message and not self.message.startswith("completed")
+                    else "")]
         if math.isfinite(self.nominal_duration):
             lines.append(f"  duration {self.duration:.3f} s vs nominal {self.nominal_duration:.3f} s "
-                         f"(+{self.extra_time:.3f} s, ×{self.slowdown:.2f})")
+                         f"({self.extra_time:+.3f} s, ×{self.slowdown:.2f})")
         if self.position_error is not None:
             lines.append(f"  max path error {self.max_position_error * 1e3:.4g} mm, "
                          f"{math.degrees(self.max_orientation_error):.4g}°")
@@ -226,7 +227,7 @@ class Execution:
                 ax.axhline(self.vmax[i], color=line.get_color(), lw=0.6, ls=":")
                 ax.axhline(-self.vmax[i], color=line.get_color(), lw=0.6, ls=":")
         ax.set_ylabel("q̇ [rad/s]")
-        ax.legend(fontsize=7, ncol=min(7, self.qd.shape[1]), loc="upper right")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # beside
         ax = axes[1]
         if self.position_error is not None:
             ax.plot(self.t, self.position_error * 1e3, color="C0", label="position [mm]")

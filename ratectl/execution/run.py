@@ -1,4 +1,4 @@
-"""Drive a robot in real time: :func:`run`.
+"""Drive a robot in real time: `run`.
 
 Every period ``1/rate_hz`` the loop
 
@@ -128,11 +128,11 @@ def run(
     status_line: bool | None = None,
     on_interrupt: str = "raise",
 ) -> Execution:
-    """Run the resolved-rate controller on a robot in real time; returns an :class:`Execution`.
+    """Run the resolved-rate controller on a robot in real time; returns an `Execution`.
 
     Give exactly one reference:
 
-    * ``path`` — a :class:`ratectl.paths.Path` starting at the robot's current tool pose
+    * ``path`` — a `ratectl.paths.Path` starting at the robot's current tool pose
       (within 1 mm / 0.01 rad; servo there first with ``target=path.start``): target
       P(s(t)) and feed-forward twist dP/ds·ṡ(t) on the path's time law, then up to
       ``settle`` seconds on the end pose until within ``tolerance``;
@@ -141,8 +141,8 @@ def run(
       time since the start [s] returning one, or None to end the stream.
 
     Args:
-        driver: a :class:`ratectl.drivers.Driver` (its ``chain`` is the controller's model).
-        controller: a :class:`~ratectl.control.ResolvedRateController` for ``driver.chain``
+        driver: a `ratectl.drivers.Driver` (its ``chain`` is the controller's model).
+        controller: a `ResolvedRateController` for ``driver.chain``
             (default: a new one with the chain's limits). It is reset first.
         rate_hz: loop rate [Hz]; the controller's dt is 1/rate_hz.
         duration: the longest the run may last [s] (robot time). Default: the path's duration
@@ -157,7 +157,7 @@ def run(
             as ``exc.execution``) or ``"return"`` (return the record).
 
     Returns:
-        An :class:`Execution` with source ``"run"``: ``q``/``q_measured`` the measured joint
+        An `Execution` with source ``"run"``: ``q``/``q_measured`` the measured joint
         positions, ``qd_measured`` the measured velocities, ``qd``/``qdd`` the commanded
         velocity and its change, tool poses fk(q_measured), the path (or target) errors, the
         controller statuses, the robot's stamps, loop periods and overruns. ``info`` holds

@@ -1,12 +1,12 @@
 """Model files in: URDF and MJCF readers behind a safe XML parser.
 
-* :mod:`~ratectl.io.xml` — sources (path, text, bytes), size caps, XML without entities;
-* :mod:`~ratectl.io.description` — :class:`ModelDescription`, what a file says about a chain;
-* :mod:`~ratectl.io.urdf` — :func:`parse_urdf`;
-* :mod:`~ratectl.io.mjcf` — :func:`parse_mjcf` (compiled by MuJoCo), joint addresses.
+* `xml` — sources (path, text, bytes), size caps, XML without entities;
+* `description` — `ModelDescription`, what a file says about a chain;
+* `urdf` — `parse_urdf`;
+* `mjcf` — `parse_mjcf` (compiled by MuJoCo), joint addresses.
 
-Build chains with :meth:`ratectl.Chain.from_urdf` / :meth:`ratectl.Chain.from_mjcf`.
-Export to MJCF is :func:`ratectl.interop.mujoco.to_mjcf`.
+Build chains with `ratectl.Chain.from_urdf` / `ratectl.Chain.from_mjcf`.
+Export to MJCF is `ratectl.interop.mujoco.to_mjcf`.
 """
 
 from __future__ import annotations

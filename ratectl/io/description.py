@@ -1,9 +1,9 @@
-"""What a model file says about a serial chain, before it becomes a :class:`~ratectl.Chain`.
+"""What a model file says about a serial chain, before it becomes a `Chain`.
 
-The URDF and MJCF readers produce a :class:`ModelDescription`: the moving joints on
+The URDF and MJCF readers produce a `ModelDescription`: the moving joints on
 the path from the base to the tip, each in the general form ``pre · M(q) · post``
-(see :class:`ratectl.model.joints.Joint`), and the constant tool transform after the
-last one. :meth:`ratectl.Chain.from_urdf` and :meth:`ratectl.Chain.from_mjcf` turn it
+(see `ratectl.model.joints.Joint`), and the constant tool transform after the
+last one. `ratectl.Chain.from_urdf` and `ratectl.Chain.from_mjcf` turn it
 into a chain. Keeping the readers free of the chain class keeps the layers one-way:
 ``model`` uses ``io``, never the reverse.
 

@@ -1,6 +1,6 @@
-"""Read a serial arm from MJCF (:func:`parse_mjcf`) and match chain joints to a MuJoCo model.
+"""Read a serial arm from MJCF (`parse_mjcf`) and match chain joints to a MuJoCo model.
 
-MJCF is checked with the same guard as URDF (:func:`~ratectl.io.xml.parse_xml_safely`),
+MJCF is checked with the same guard as URDF (`parse_xml_safely`),
 ``<include>`` files are inlined under caps and confined to the model's directory, every
 element or attribute that would make MuJoCo open a file (mesh, heightfield, texture,
 skin, flexcomp, sub-model, plugin, ``*dir``) is removed, and the result
@@ -64,7 +64,7 @@ def parse_mjcf(path_or_model, *, tip: str | None = None, name: str | None = None
 def compile_mjcf(model_or_source):
     """An ``MjModel`` from an ``MjModel`` (returned as is), MJCF text, bytes or a file path.
 
-    Text and files go through the safety checks of :func:`parse_mjcf` (no DTD/entities,
+    Text and files go through the safety checks of `parse_mjcf` (no DTD/entities,
     mesh files never opened, includes confined as documented there).
     """
     import mujoco
@@ -111,8 +111,8 @@ def _compile(source):
 
 class _IncludeBudget:
     """What the includes of one model may still read: files (each inclusion counts, so an
-    include bomb is stopped after :data:`MAX_INCLUDES`) and bytes (the model and every
-    included file together stay under :data:`~ratectl.io.xml.MAX_BYTES`); and the one
+    include bomb is stopped after `MAX_INCLUDES`) and bytes (the model and every
+    included file together stay under `MAX_BYTES`); and the one
     directory they must stay inside (the top model's, symlinks resolved)."""
 
     def __init__(self, directory: Path | None, used: int) -> None:
@@ -159,9 +159,9 @@ def _inline_includes(root: ET.Element, directory: Path | None, label: str, *, de
     """Replace ``<include file=...>`` by the (safely parsed) children of the included file.
 
     Includes are confined (relative paths inside the top model's directory, no ``..``,
-    symlinks resolved), nested at most :data:`MAX_INCLUDE_DEPTH` deep, at most
-    :data:`MAX_INCLUDES` inclusions in total, and the bytes of the model and all its
-    inclusions together at most :data:`~ratectl.io.xml.MAX_BYTES`.
+    symlinks resolved), nested at most `MAX_INCLUDE_DEPTH` deep, at most
+    `MAX_INCLUDES` inclusions in total, and the bytes of the model and all its
+    inclusions together at most `MAX_BYTES`.
     """
     for parent in list(root.iter()):
         for k, child in enumerate(list(parent)):
@@ -199,7 +199,7 @@ _FILE_ATTRS = re.compile(r"^(file.*|meshdir|texturedir|assetdir|content_type|plu
 
 def _strip_files(root: ET.Element) -> None:
     """Remove everything that makes MuJoCo open a file or load plugin code: the elements
-    of :data:`_FILE_ELEMENTS` (meshes, heightfields, skins, textures, sub-models,
+    of `_FILE_ELEMENTS` (meshes, heightfields, skins, textures, sub-models,
     flexcomps, plugins), every ``file*`` attribute on any element (texture ``fileright``,
     ...) and the compiler's ``meshdir``/``texturedir``/``assetdir``, and turn geoms that
     used a mesh or heightfield into small spheres. Kinematics does not depend on them, and

@@ -1,18 +1,19 @@
-"""Read a serial arm from a URDF description (:func:`parse_urdf`).
+"""Read a serial arm from a URDF description (`parse_urdf`).
 
-URDF is parsed with :mod:`xml.etree.ElementTree` behind :func:`~ratectl.io.xml.parse_xml_safely`
+URDF is parsed with `xml.etree.ElementTree` behind `parse_xml_safely`
 (no document type or entity declarations: nothing expands, no external reference is
 followed). Mesh files, ``package://`` URIs and the ``<mujoco>`` extension element are
 ignored and never opened. Fixed joints are folded into the next moving joint's ``pre``
 or, after the last one, into the tool transform; the base is the base link.
 
 Everything that cannot become a serial chain raises
-:class:`~ratectl.errors.ImportModelError` whose message and ``element`` attribute
+`ImportModelError` whose message and ``element`` attribute
 name the element at fault (for example ``"joint 'finger_2'"``).
 """
 
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -43,7 +44,7 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
         name: chain name; default the ``<robot name>``.
 
     Returns:
-        A :class:`~ratectl.io.description.ModelDescription` of a chain whose fk(q) is
+        A `ModelDescription` of a chain whose fk(q) is
         ``T_base_link_tip`` and whose
         joints carry the URDF names and limits: ``<limit lower upper>`` [rad or m] for
         revolute/prismatic joints (continuous joints are unlimited) and
@@ -113,6 +114,7 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
     elif base_link not in links:
         raise ImportModelError(f"{label}: base_link {base_link!r} is not a link of this robot; links: "
                                f"{sorted(links)}", element=f"link {base_link!r}")
+    auto_tip = tip is None
     if tip is None:
         tip = base_link
         while True:
@@ -144,6 +146,8 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
         path_joints.append(j)
         link = parent_of(link)
     path_joints.reverse()
+    if auto_tip:
+        _refuse_end_effector_joint(label, path_joints, joints, tip)
 
     chain_joints: list[JointDescription] = []
     A = np.eye(4)
@@ -180,6 +184,30 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
                                f"{base_link!r} and {tip!r}", element=f"link {tip!r}")
     rname = name if name is not None else (root.get("name") or "urdf")
     return ModelDescription(joints=tuple(chain_joints), tool=A, name=rname, label=label)
+
+
+_END_EFFECTOR_WORDS = re.compile(r"finger|gripper|jaw|knuckle|claw|grasp|suction", re.IGNORECASE)
+
+
+def _refuse_end_effector_joint(label, path_joints, joints, tip) -> None:
+    """With no ``tip`` given, the single leaf may hang below a gripper joint (a jaw or
+    finger slide): that joint is not part of the arm. Ask for ``tip`` instead of silently
+    adding it as one more arm joint."""
+    movable = [j for j in path_joints if joints[j].get("type") in _URDF_MOVABLE]
+    if not movable:
+        return
+    last = joints[movable[-1]]
+    child = last.find("child").get("link") if last.find("child") is not None else ""
+    parent = last.find("parent").get("link") if last.find("parent") is not None else ""
+    revolute_before = sum(joints[j].get("type") in ("revolute", "continuous") for j in movable[:-1])
+    gripper_like = bool(_END_EFFECTOR_WORDS.search(f"{movable[-1]} {child}")) or (
+        last.get("type") == "prismatic" and revolute_before >= 6)
+    if gripper_like:
+        raise ImportModelError(
+            f"{label}: no tip given, and the only leaf link {tip!r} is reached through joint "
+            f"{movable[-1]!r} ({last.get('type')}), which looks like a gripper joint, not part of the "
+            f"arm; pass tip={parent!r} to end the arm before it (or tip={tip!r} to include it as "
+            f"joint {len(movable)})", element=f"joint {movable[-1]!r}")
 
 
 def _leaves(link: str, children: dict[str, list[str]]) -> list[str]:

@@ -1,12 +1,12 @@
 """Reading model files safely: sources, size caps and an XML parser without entities.
 
-Both model formats (URDF, MJCF) come through here. :func:`read_source` accepts a path,
+Both model formats (URDF, MJCF) come through here. `read_source` accepts a path,
 XML text (``str`` starting with ``<``, optionally after a byte-order mark) or bytes and
-refuses sources over the size cap; :func:`parse_xml_safely` decodes the bytes the way an
+refuses sources over the size cap; `parse_xml_safely` decodes the bytes the way an
 XML parser would (byte-order mark, else the XML declaration's ``encoding``, else UTF-8),
 refuses any document type or entity declaration in the **decoded** text (so no encoding
 can hide one), feeds the parser exactly that text, and refuses documents nested deeper
-than :data:`MAX_DEPTH` elements. No entity is expanded and no external reference is
+than `MAX_DEPTH` elements. No entity is expanded and no external reference is
 followed. See ``docs/security.md`` for the threat model.
 """
 
@@ -46,7 +46,7 @@ _SNIFF = ((b"<\0\0\0", "utf-32-le"), (b"\0\0\0<", "utf-32-be"), (b"<\0", "utf-16
 
 def read_source(source, kind: str) -> tuple[bytes | str, str, Path | None]:
     """(bytes or text, a label for messages, directory of the file or None) of a path, XML
-    text or bytes; sources over :data:`MAX_BYTES` are refused."""
+    text or bytes; sources over `MAX_BYTES` are refused."""
     if isinstance(source, bytes | bytearray | memoryview):
         data = bytes(source)
         if len(data) > MAX_BYTES:
@@ -134,7 +134,7 @@ def parse_xml_safely(data: bytes | str, *, label: str = "<xml>",
                      max_depth: int = MAX_DEPTH) -> ET.Element:
     """Parse XML without entity expansion or external references.
 
-    The bytes are decoded first (:func:`decode_xml`); any ``<!DOCTYPE`` or ``<!ENTITY``
+    The bytes are decoded first (`decode_xml`); any ``<!DOCTYPE`` or ``<!ENTITY``
     declaration in the decoded text is refused (that is where entity bombs and external
     entities live); without one, the parser only knows the five predefined entities and
     character references, so nothing expands. The parser is fed the checked text itself

@@ -1,14 +1,14 @@
 """Kinematics of a serial chain: forward kinematics, the geometric Jacobian, J̇, the Hessian.
 
-* :mod:`~ratectl.kinematics.codegen` — generated straight-line kernels (scalar and batched);
-* :mod:`~ratectl.kinematics.forward` — ``fk``, ``jacobian``, ``fk_jacobian`` on those kernels,
+* `codegen` — generated straight-line kernels (scalar and batched);
+* `forward` — ``fk``, ``jacobian``, ``fk_jacobian`` on those kernels,
   and Jacobian re-referencing (point, axes);
-* :mod:`~ratectl.kinematics.reference` — the plain 4×4 recursion (frames, joint axes, the
+* `reference` — the plain 4×4 recursion (frames, joint axes, the
   reference the kernels are checked against), finite differences;
-* :mod:`~ratectl.kinematics.derivatives` — J̇ and statics τ = Jᵀ F;
-* :mod:`~ratectl.kinematics.hessian` — ∂J/∂q.
+* `derivatives` — J̇ and statics τ = Jᵀ F;
+* `hessian` — ∂J/∂q.
 
-The functions take the chain as their first argument; :class:`ratectl.Chain` exposes
+The functions take the chain as their first argument; `ratectl.Chain` exposes
 them as methods.
 """
 

@@ -14,7 +14,7 @@ forward recursion symbolically once, fold away every product with 0 and ±1
 
 The recursion for joint i is ``T_i = T_{i-1} · P_i · M_i(q_i) · Q_i`` with constant
 ``P_i``, ``Q_i`` and the joint motion ``M_i`` = Rz(q) (revolute) or Tz(q) (prismatic),
-see :class:`ratectl.model.joints.Joint`. The joint's world axis is the z axis of
+see `ratectl.model.joints.Joint`. The joint's world axis is the z axis of
 ``T_{i-1} P_i`` and its origin a point on it, which gives the geometric Jacobian
 columns:
 
@@ -333,8 +333,8 @@ def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str =
                    guard=None, chain=None):
     """Compile the generated source; returns the function (its source text in ``__source__``).
 
-    The source is registered with :mod:`linecache` under a unique file name
-    (``<ratectl kernel LABEL fkjac #k>``), so tracebacks, :func:`inspect.getsource` and
+    The source is registered with `linecache` under a unique file name
+    (``<ratectl kernel LABEL fkjac #k>``), so tracebacks, `inspect.getsource` and
     pdb show the generated lines.
     """
     src = generate_source(joints, base, tool, what=what, batched=batched,

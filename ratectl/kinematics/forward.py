@@ -1,6 +1,6 @@
 """Forward kinematics and the geometric Jacobian, on chain-specialised generated code.
 
-All functions take a :class:`~ratectl.Chain` and joint positions ``q`` of shape
+All functions take a `Chain` and joint positions ``q`` of shape
 ``(n,)`` or ``(..., n)`` and broadcast over the leading dimensions.
 
 The Jacobian maps q̇ to the tool twist ``ξ = [v; ω]``; by default its rows are in
@@ -12,10 +12,10 @@ base axes and the linear rows are taken at the tool origin. Column i is
 where ``z_i`` is the joint's world axis and ``o_i`` a point on it.
 
 ``fk`` and ``jacobian`` run chain-specialised generated code
-(:mod:`ratectl.kinematics.codegen`): one configuration on Python floats, a batch on
+(`ratectl.kinematics.codegen`): one configuration on Python floats, a batch on
 numpy arrays in chunks. With the environment variable ``RATECTL_KERNELS=reference``
 set before ratectl is imported, every kernel is replaced by the plain reference
-implementation (:mod:`ratectl.kinematics.reference`), for debugging.
+implementation (`ratectl.kinematics.reference`), for debugging.
 
 Thread safety: kernels are compiled once per chain and are pure functions; batched
 calls use per-thread work buffers. Any number of threads may evaluate the same chain.
@@ -61,7 +61,7 @@ def build_kernel(chain, key):
     """Compile (once per chain) and cache the generated kernel ``key = (what, batched)``.
 
     ``what`` is ``"fk"``, ``"jac"`` or ``"fkjac"``. In reference mode the kernel is a
-    wrapper with the same calling convention around :func:`reference_fk_jacobian`.
+    wrapper with the same calling convention around `reference_fk_jacobian`.
     """
     fn = chain._kernels.get(key)
     if fn is None:
@@ -81,7 +81,7 @@ def build_kernel(chain, key):
 def kernel_source(chain, what: str = "fkjac", *, batched: bool = False) -> str:
     """The generated Python source of ``chain``'s kernel (``what`` in "fk", "jac", "fkjac").
 
-    The same text is registered with :mod:`linecache`, so tracebacks, :func:`inspect.getsource`
+    The same text is registered with `linecache`, so tracebacks, `inspect.getsource`
     and pdb show it.
     """
     if what not in ("fk", "jac", "fkjac"):
@@ -258,7 +258,7 @@ def jacobian(chain, q, *, frame: str = "base", point=None) -> np.ndarray:
 
 
 def fk_jacobian(chain, q, *, frame: str = "base", point=None):
-    """``(T_world_tool, J)`` evaluated together; see :func:`fk` and :func:`jacobian`."""
+    """``(T_world_tool, J)`` evaluated together; see `fk` and `jacobian`."""
     n = chain._n
     vals, batch = _run(chain, q, "fkjac", 16 + 6 * n)
     T = vals[..., :16].reshape(batch + (4, 4))

@@ -2,7 +2,7 @@
 
 ``H[..., k, :, i] = ∂J_i/∂q_k`` is a (..., n, 6, n) array: slice ``H[..., k, :, :]`` is
 the 6×n matrix ∂J/∂q_k. It is what the analytic gradient of manipulability
-(:func:`ratectl.singularity.manipulability_gradient`) and the first-order distance to
+(`ratectl.singularity.manipulability_gradient`) and the first-order distance to
 a singularity need.
 
 Derivation (base axes, linear rows at a point p fixed to the tool, e.g. the tool
@@ -25,7 +25,7 @@ Putting these into the column formulas and using the Jacobi identity
 
 Both lines hold for revolute and prismatic joints alike, because the angular column
 ``J_ω`` of a prismatic joint is zero (which makes the terms that must vanish vanish).
-So H is a function of J alone: :func:`hessian_from_jacobian`. The formula needs J in
+So H is a function of J alone: `hessian_from_jacobian`. The formula needs J in
 base axes (``frame="base"``), referred to any point fixed to the tool.
 """
 
@@ -50,7 +50,7 @@ def hessian_from_jacobian(J) -> np.ndarray:
 
     Args:
         J: geometric Jacobian (..., 6, n) in **base axes**, linear rows at a point fixed
-            to the tool (the default of :meth:`Chain.jacobian`, or ``point=...``).
+            to the tool (the default of `Chain.jacobian`, or ``point=...``).
 
     Implements ``∂J_i/∂q_k = [J_ω,k × J_v,i ; J_ω,k × J_ω,i]`` for k < i and
     ``[J_ω,i × J_v,k ; 0]`` for k ≥ i (module docstring). Units: the linear rows are in
@@ -80,13 +80,13 @@ def jacobian_hessian(chain, q, *, point=None) -> np.ndarray:
         chain: the robot model.
         q: joint positions (n,) or (..., n).
         point: reference point of the linear rows in tool-frame coordinates [m]
-            (default the tool origin), as in :meth:`Chain.jacobian`. Base axes only.
+            (default the tool origin), as in `Chain.jacobian`. Base axes only.
     """
     return hessian_from_jacobian(chain.jacobian(q, point=point))
 
 
 def numerical_hessian(chain, q, *, step: float = 1e-6, point=None) -> np.ndarray:
-    """Central finite differences of :meth:`Chain.jacobian`, (n, 6, n), for checking.
+    """Central finite differences of `Chain.jacobian`, (n, 6, n), for checking.
 
     ``H_k ≈ (J(q + h e_k) − J(q − h e_k)) / 2h``; error O(h²) + O(ε/h).
     """

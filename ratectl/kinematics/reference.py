@@ -7,9 +7,9 @@ joint's world axis ``z_i`` and a point ``o_i`` on it:
 * revolute:  ``J_i = [ z_i × (p − o_i) ; z_i ]``
 * prismatic: ``J_i = [ z_i ; 0 ]``
 
-This is the readable definition the generated kernels (:mod:`ratectl.kinematics.codegen`)
+This is the readable definition the generated kernels (`ratectl.kinematics.codegen`)
 are checked against, the path for frames and joint axes, and what runs when
-``RATECTL_KERNELS=reference`` is set (see :func:`ratectl.kinematics.use_reference`) —
+``RATECTL_KERNELS=reference`` is set (see `ratectl.kinematics.use_reference`) —
 for stepping through the kinematics in a debugger.
 """
 
@@ -46,7 +46,7 @@ MAX_PRISMATIC = 1e9
 
 
 def check_prismatic_range(chain, a) -> None:
-    """Refuse prismatic joint values beyond ±:data:`MAX_PRISMATIC` m in ``a`` (..., n)."""
+    """Refuse prismatic joint values beyond ±`MAX_PRISMATIC` m in ``a`` (..., n)."""
     pr = chain.prismatic
     if pr.any():
         v = np.abs(a[..., pr])
@@ -107,7 +107,7 @@ def reference_fk_jacobian(chain, q):
 
 
 def numerical_jacobian(chain, q, *, step: float = 1e-6) -> np.ndarray:
-    """Central finite-difference Jacobian of :meth:`Chain.fk` (6, n), for checking.
+    """Central finite-difference Jacobian of `Chain.fk` (6, n), for checking.
 
     Linear rows: ``(p(q + h e_i) − p(q − h e_i)) / 2h``; angular rows:
     ``vee(Ṙ Rᵀ)`` with ``Ṙ`` by the same central difference. Error O(h²) + O(ε/h).

@@ -1,8 +1,8 @@
 """The robot model: joints (DH, modified DH, general), the chain, built-in robots.
 
-* :mod:`~ratectl.model.joints` — :class:`DH`, :class:`MDH` table rows and the general :class:`Joint`;
-* :mod:`~ratectl.model.chain` — :class:`Chain`: joints, base and tool, limits, kinematics methods;
-* :mod:`~ratectl.model.robots` — UR5e, Panda, PUMA 560, Stanford, iiwa7, RPR, planar 2R.
+* `joints` — `DH`, `MDH` table rows and the general `Joint`;
+* `chain` — `Chain`: joints, base and tool, limits, kinematics methods;
+* `robots` — UR5e, Panda, PUMA 560, Stanford, iiwa7, RPR, planar 2R.
 """
 
 from __future__ import annotations

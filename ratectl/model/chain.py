@@ -1,9 +1,9 @@
-"""The robot model: a serial chain of revolute and prismatic joints (:class:`Chain`).
+"""The robot model: a serial chain of revolute and prismatic joints (`Chain`).
 
-A chain is built from a standard (:class:`~ratectl.model.joints.DH`) or modified/Craig
-(:class:`~ratectl.model.joints.MDH`) Denavit–Hartenberg table, from URDF or MJCF
-(parsed by :mod:`ratectl.io`), or directly from :class:`~ratectl.model.joints.Joint`
-objects. The kinematics (``fk``, ``jacobian``, ...) live in :mod:`ratectl.kinematics`;
+A chain is built from a standard (`DH`) or modified/Craig
+(`MDH`) Denavit–Hartenberg table, from URDF or MJCF
+(parsed by `ratectl.io`), or directly from `Joint`
+objects. The kinematics (``fk``, ``jacobian``, ...) live in `ratectl.kinematics`;
 the chain exposes them as methods.
 """
 
@@ -24,13 +24,13 @@ __all__ = ["Chain"]
 class Chain:
     """A serial robot arm: joints, base and tool transforms, limits and names.
 
-    Build one with :meth:`from_dh`, :meth:`from_mdh`, the importers, or from
-    :class:`Joint` objects. A chain is immutable; :meth:`with_tool` and
-    :meth:`with_base` return new chains.
+    Build one with `from_dh`, `from_mdh`, the importers, or from
+    `Joint` objects. A chain is immutable; `with_tool` and
+    `with_base` return new chains.
 
     Kinematics methods (all broadcast over leading dimensions of ``q``):
-    :meth:`fk`, :meth:`frames`, :meth:`jacobian`, :meth:`fk_jacobian`,
-    :meth:`jacobian_dot`, :meth:`joint_axes`, :meth:`joint_torques`.
+    `fk`, `frames`, `jacobian`, `fk_jacobian`,
+    `jacobian_dot`, `joint_axes`, `joint_torques`.
     """
 
     def __init__(self, joints, *, base=None, tool=None, name: str = "chain",
@@ -71,7 +71,7 @@ class Chain:
     @classmethod
     def from_dh(cls, rows, *, base=None, tool=None, name: str = "chain",
                 characteristic_length: float | None = None) -> Chain:
-        """Chain from a standard DH table (a list of :class:`DH` rows)."""
+        """Chain from a standard DH table (a list of `DH` rows)."""
         rows = cls._check_rows(rows, DH)
         joints = [r.to_joint(k) for k, r in enumerate(rows)]
         return cls(joints, base=base, tool=tool, name=name, table=tuple(rows),
@@ -80,7 +80,7 @@ class Chain:
     @classmethod
     def from_mdh(cls, rows, *, base=None, tool=None, name: str = "chain",
                  characteristic_length: float | None = None) -> Chain:
-        """Chain from a modified (Craig) DH table (a list of :class:`MDH` rows)."""
+        """Chain from a modified (Craig) DH table (a list of `MDH` rows)."""
         rows = cls._check_rows(rows, MDH)
         joints = [r.to_joint(k) for k, r in enumerate(rows)]
         return cls(joints, base=base, tool=tool, name=name, table=tuple(rows),
@@ -103,7 +103,7 @@ class Chain:
     @classmethod
     def from_urdf(cls, source, *, tip: str | None = None, base_link: str | None = None,
                   name: str | None = None, qlim=None, vmax=None, amax=None, jmax=None) -> Chain:
-        """Chain from a URDF file path or the URDF text itself (see :mod:`ratectl.io.urdf`).
+        """Chain from a URDF file path or the URDF text itself (see `ratectl.io.urdf`).
 
         Args:
             source: path to a ``.urdf`` file, or the XML text (a ``str`` starting with ``<``),
@@ -112,7 +112,7 @@ class Chain:
             base_link: the link that becomes the base frame (default: the root link).
             name: chain name (default: the ``<robot name>``).
             qlim, vmax, amax, jmax: limits to set or replace after import, as in
-                :meth:`with_limits` (URDF carries no acceleration or jerk limits: pass
+                `with_limits` (URDF carries no acceleration or jerk limits: pass
                 ``amax``/``jmax`` here for acceleration-limited or smoothed control).
         """
         from ..io.urdf import parse_urdf
@@ -124,8 +124,8 @@ class Chain:
     def from_mjcf(cls, path_or_model, *, tip: str | None = None, name: str | None = None,
                   qlim=None, vmax=None, amax=None, jmax=None) -> Chain:
         """Chain from an MJCF file, its text, or a compiled ``mujoco.MjModel``
-        (see :mod:`ratectl.io.mjcf`); ``qlim, vmax, amax, jmax`` set or replace limits
-        after import, as in :meth:`with_limits`."""
+        (see `ratectl.io.mjcf`); ``qlim, vmax, amax, jmax`` set or replace limits
+        after import, as in `with_limits`."""
         from ..io.mjcf import parse_mjcf
 
         chain = cls.from_description(parse_mjcf(path_or_model, tip=tip, name=name))
@@ -133,7 +133,7 @@ class Chain:
 
     @classmethod
     def from_description(cls, description: ModelDescription) -> Chain:
-        """Chain from what a model file says (:class:`ratectl.io.description.ModelDescription`).
+        """Chain from what a model file says (`ratectl.io.description.ModelDescription`).
 
         Raises:
             ImportModelError: a joint's transform or limits are not acceptable; the
@@ -388,7 +388,7 @@ class Chain:
     # ------------------------------------------------------------------ kinematics
     # The single-configuration fast paths are inlined here (no further Python calls
     # than the generated kernel and one numpy conversion); everything else is in
-    # :mod:`ratectl.kinematics`.
+    # `ratectl.kinematics`.
     def fk(self, q) -> np.ndarray:
         """Base-to-tool pose ``T_world_tool`` (..., 4, 4) at q (..., n)."""
         if type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64:
@@ -442,8 +442,8 @@ class Chain:
         return kinematics.jacobian_dot(self, q, qd, frame=frame, point=point)
 
     def kernel_source(self, what: str = "fkjac", *, batched: bool = False) -> str:
-        """The generated Python source behind :meth:`fk`/:meth:`jacobian` (``what``: "fk",
-        "jac" or "fkjac"), for reading and debugging; see :mod:`ratectl.kinematics.codegen`."""
+        """The generated Python source behind `fk`/`jacobian` (``what``: "fk",
+        "jac" or "fkjac"), for reading and debugging; see `ratectl.kinematics.codegen`."""
         return kinematics.kernel_source(self, what, batched=batched)
 
     def joint_torques(self, q, wrench, *, frame: str = "base", point=None) -> np.ndarray:

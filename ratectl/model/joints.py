@@ -1,4 +1,4 @@
-"""Joints of a serial chain: DH and modified-DH table rows and the general :class:`Joint`.
+"""Joints of a serial chain: DH and modified-DH table rows and the general `Joint`.
 
 Every joint i is the same thing internally:
 
@@ -83,7 +83,7 @@ def check_limits(qlim, vmax, amax, jmax, *, joint: int | None, where: str):
 
 def check_transform(T, name: str) -> np.ndarray:
     """A read-write copy of the rigid transform ``T`` (identity for None), or a ModelError
-    naming what is wrong (see :func:`ratectl.spatial.rigid_transform_defect`)."""
+    naming what is wrong (see `ratectl.spatial.rigid_transform_defect`)."""
     if T is None:
         return np.eye(4)
     defect = rigid_transform_defect(T)
@@ -108,12 +108,15 @@ class DH:
     """One row of a standard Denavit–Hartenberg table: ``A = Rz(θ) Tz(d) Tx(a) Rx(α)``.
 
     Args:
-        a: link length [m]. alpha: link twist [rad]. d: link offset [m].
+        a: link length [m].
+        alpha: link twist [rad].
+        d: link offset [m].
         theta: joint angle offset [rad].
         joint: ``"revolute"`` (q adds to θ) or ``"prismatic"`` (q adds to d).
         qlim: (lower, upper) joint position limits [rad or m], optional.
-        vmax, amax, jmax: velocity, acceleration and jerk limits (magnitudes) in
-            SI units [rad/s, rad/s², rad/s³ or m/s, ...], optional.
+        vmax: velocity limit (magnitude) [rad/s or m/s], optional.
+        amax: acceleration limit (magnitude) [rad/s² or m/s²], optional.
+        jmax: jerk limit (magnitude) [rad/s³ or m/s³], optional.
         name: joint name, optional.
     """
 
@@ -153,7 +156,7 @@ class DH:
                       where=type(self).__name__)
 
     def to_joint(self, index: int = 0) -> Joint:
-        """The general :class:`Joint` for this row."""
+        """The general `Joint` for this row."""
         lo, hi, vmax, amax, jmax = check_limits(self.qlim, self.vmax, self.amax, self.jmax,
                                                  joint=index, where=f"joint {index}")
         if self.joint == "revolute":
@@ -172,7 +175,7 @@ class MDH(DH):
     """One row of a modified (Craig) DH table: ``A_i = Rx(α_{i-1}) Tx(a_{i-1}) Rz(θ_i) Tz(d_i)``.
 
     ``a`` and ``alpha`` are the *previous* link's length and twist (a_{i-1}, α_{i-1}),
-    as in Craig's tables and Franka's documentation. Other fields as in :class:`DH`.
+    as in Craig's tables and Franka's documentation. Other fields as in `DH`.
     """
 
     convention = "modified"

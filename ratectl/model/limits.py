@@ -1,17 +1,17 @@
 """Joint limits and how fast a joint may move toward a position limit.
 
-:class:`Limits` is the four per-joint arrays every limit-aware computation needs
+`Limits` is the four per-joint arrays every limit-aware computation needs
 (``lower``, ``upper`` [rad or m], ``vmax``, ``amax`` magnitudes; ±inf where absent). A
-:class:`~ratectl.Chain` carries the same arrays (plus ``jmax``) and is accepted wherever
+`Chain` carries the same arrays (plus ``jmax``) and is accepted wherever
 limits are.
 
 Braking toward a position limit at distance d has one home here, in the two motion
 models the package uses:
 
 * acceleration-limited, in steps of dt (the QP's and the unsmoothed controller's bound):
-  :func:`braking_speed_discrete`, the exact discrete form of √(2·amax·d);
+  `braking_speed_discrete`, the exact discrete form of √(2·amax·d);
 * jerk-limited, continuous (what Ruckig's time-optimal stop does, for smoothed control):
-  :func:`stopping_distance` and its inverse :func:`braking_speed`.
+  `stopping_distance` and its inverse `braking_speed`.
 """
 
 from __future__ import annotations
@@ -152,7 +152,7 @@ def stopping_distance(v, a, amax, jmax) -> np.ndarray:
 def braking_speed(d, amax, jmax) -> np.ndarray:
     """The largest speed from which a joint at zero acceleration can still stop within
     the distance ``d`` ≥ 0 under |q̈| ≤ amax, |q⃛| ≤ jmax: the inverse of
-    :func:`stopping_distance` at a = 0,
+    `stopping_distance` at a = 0,
 
         v = (d·√J)^{2/3}                                   for d ≤ A³/J²,
         v = (−A²/J + √(A⁴/J² + 8·A·d))/2                   otherwise.

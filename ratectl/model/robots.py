@@ -1,6 +1,6 @@
 """Built-in arm models with their published kinematic parameters.
 
-Each function returns a fresh :class:`~ratectl.chain.Chain`. Position and velocity
+Each function returns a fresh `Chain`. Position and velocity
 limits are the manufacturer's (or the cited source's) where published; where a
 source gives no acceleration or jerk limits the values here are conservative
 ratectl defaults and the docstring says so.
@@ -155,7 +155,7 @@ def iiwa7() -> Chain:
 
 
 def rpr(*, d1: float = 0.4, d3: float = 0.1, q2_range: tuple[float, float] = (0.1, 0.8)) -> Chain:
-    """The RPR worked example of DESIGN.md §1, standard DH.
+    """The RPR arm of the worked example in the documentation, standard DH.
 
     ====  =========  ==  ====  ====  =====
     i     type       θ   d     a     α

@@ -21,14 +21,14 @@ class Arc(Path):
     ``p(φ) = c + Rot(k, φ)(p₀ − c)`` for φ ∈ [0, angle] (right-handed about the unit
     axis k; the start point is the position of ``T_start``). Orientation:
     ``"fixed"`` keeps R₀; ``"rotate"`` turns the tool with the arc, R(φ) = Rot(k, φ)R₀.
-    Use :meth:`through` for an arc given by three points.
+    Use `through` for an arc given by three points.
 
     Args:
         T_start: start pose (4×4).
         centre: a point on the axis [m] (3,); axis: axis direction (3,), normalised here.
         angle: swept angle [rad] (may be negative, |angle| ≤ 2π).
         orientation: ``"fixed"`` or ``"rotate"``.
-        speed, acceleration, jerk, law, rotation_length: as for :class:`Line`.
+        speed, acceleration, jerk, law, rotation_length: as for `Line`.
     """
 
     def __init__(self, T_start, *, centre, axis, angle: float, orientation: str = "fixed",

@@ -1,4 +1,4 @@
-"""The :class:`Path` base class: a curve of tool poses over the path parameter s, with a time law.
+"""The `Path` base class: a curve of tool poses over the path parameter s, with a time law.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from .time_laws import make_time_law
 __all__ = ['Path', 'MAX_STEPS']
 
 
-#: Default cap on the number of steps of a loop over a path (:meth:`Path.steps`): 10⁶
+#: Default cap on the number of steps of a loop over a path (`Path.steps`): 10⁶
 #: (about 17 minutes at 1 kHz).
 MAX_STEPS = 1_000_000
 
@@ -26,7 +26,7 @@ class Path:
 
     Subclasses implement ``_geometry(s) -> (p, R, dp/ds, ω/ṡ)``. Common keyword
     options: ``speed`` [m/s] and ``acceleration`` [m/s²] limits on ṡ and s̈, ``jerk``
-    [m/s³] (enables the jerk-limited law by default), ``law`` (one of :data:`LAWS`),
+    [m/s³] (enables the jerk-limited law by default), ``law`` (one of `LAWS`),
     ``rotation_length`` ρ [m/rad].
     """
 
@@ -88,7 +88,7 @@ class Path:
 
     def curvature_twist_at(self, s, *, h: float | None = None) -> np.ndarray:
         """Second derivative d²P/ds² as a twist-rate (6,) by central differences of
-        :meth:`twist_at` (step ``h`` [m], default 1e-5·length)."""
+        `twist_at` (step ``h`` [m], default 1e-5·length)."""
         h = h or max(1e-5 * self.length, 1e-9)
         s = self._clamp(s)
         a, b = max(s - h, 0.0), min(s + h, self.length)
@@ -112,7 +112,7 @@ class Path:
 
     def steps(self, dt: float, *, max_steps: int = MAX_STEPS) -> int:
         """Number of samples N = ⌈duration/dt⌉ + 1 of the nominal law every ``dt`` [s],
-        checked up front: more than ``max_steps`` raises :class:`~ratectl.errors.InputError`
+        checked up front: more than ``max_steps`` raises `InputError`
         naming the duration and dt (instead of running out of time or memory later).
         Loops over a path (sampling, following it) call this before any work."""
         dt = _positive(dt, "dt")
@@ -126,7 +126,7 @@ class Path:
 
     def sample(self, dt: float, *, max_steps: int = MAX_STEPS):
         """Times, poses and twists of the nominal law every ``dt`` [s]: (t, (N,4,4), (N,6)).
-        At most ``max_steps`` samples (see :meth:`steps`)."""
+        At most ``max_steps`` samples (see `steps`)."""
         dt = _positive(dt, "dt")
         n = self.steps(dt, max_steps=max_steps)
         t = np.minimum(np.arange(n) * dt, self.duration)

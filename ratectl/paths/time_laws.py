@@ -129,7 +129,7 @@ class JerkLimited(TimeLaw):
 
 def make_time_law(law: str, length: float, *, speed: float, acceleration: float,
                   jerk: float | None = None) -> TimeLaw:
-    """A time law by name (one of :data:`LAWS`)."""
+    """A time law by name (one of `LAWS`)."""
     if law == "trapezoidal":
         return Trapezoidal(length, speed=speed, acceleration=acceleration)
     if law == "quintic":

@@ -24,7 +24,7 @@ def _smoothstep(x: float) -> tuple[float, float]:
 class Waypoints(Path):
     """A sequence of poses joined by straight segments with smooth blends at the corners.
 
-    Each segment is a :class:`Line`. Around every inner waypoint i the path blends the
+    Each segment is a `Line`. Around every inner waypoint i the path blends the
     incoming and outgoing segments over ``s ∈ [S_i − d, S_i + d]`` with
     d = min(blend, half of each adjacent segment):
     ``p = (1 − α)p_in(s) + α p_out(s)`` and ``R = R_in(s) exp(α log(R_in(s)ᵀ R_out(s)))``,
@@ -36,7 +36,7 @@ class Waypoints(Path):
     Args:
         poses: N ≥ 2 poses (N, 4, 4).
         blend: blend half-length d [m].
-        speed, acceleration, jerk, law, rotation_length: as for :class:`Line`.
+        speed, acceleration, jerk, law, rotation_length: as for `Line`.
     """
 
     def __init__(self, poses, *, blend: float = 0.02, speed: float, acceleration: float,

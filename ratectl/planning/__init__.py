@@ -1,9 +1,9 @@
 """Planning: inverse kinematics, joint paths along Cartesian paths, the path-speed governor.
 
-* :mod:`~ratectl.planning.ik` — :func:`ik`, damped Newton IK (the package's one IK);
-* :mod:`~ratectl.planning.joint_path` — q(s) along a path, corrected onto it;
-* :mod:`~ratectl.planning.topp` — admissible path speed from joint limits;
-* :mod:`~ratectl.planning.governor` — :class:`Governor`, the jerk-limited progress plan.
+* `ik` — `ik`, damped Newton IK (the package's one IK);
+* `joint_path` — q(s) along a path, corrected onto it;
+* `topp` — admissible path speed from joint limits;
+* `governor` — `Governor`, the jerk-limited progress plan.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ stay within ``velocity_margin·vmax`` and ``acceleration_margin·amax`` on every
 (``q' = dq/ds``, ``q'' = d²q/ds²`` along the joint path), and within the path's own
 speed and acceleration limits.
 
-How (all done once, before the motion — :func:`plan`):
+How (all done once, before the motion — `plan`):
 
 1. **Joint path.** Integrate ``dq/ds = J⁺(q) dP/ds`` from q0 with steps small enough
    that no joint moves more than ``max_joint_step`` [rad], correcting every step by
@@ -47,7 +47,7 @@ How (all done once, before the motion — :func:`plan`):
    A joint path that crosses a joint *position* limit is reported in the plan's message
    (re-timing cannot avoid it).
 
-The executor (:func:`ratectl.follow`) then feeds the planned joint velocity forward
+The executor (`ratectl.follow`) then feeds the planned joint velocity forward
 and closes the loop on the pose error through the controller, so the tool stays on
 the path to within the feedback's accuracy.
 """
@@ -79,7 +79,7 @@ class GovernorPlan:
     Attributes:
         dt: control period [s]; t, s, sd, sdd: (K,) arrays; q: (K, n); qd_ff: (K, n)
             (the last row is zero).
-        joint_path: the :class:`JointPath` of step 1.
+        joint_path: the `JointPath` of step 1.
         x_limit: (N,) admissible ṡ² on the joint-path grid (after margins).
         nominal_duration: duration of the path's own time law [s].
         duration: duration of the governed motion [s].
@@ -127,7 +127,7 @@ class Governor:
         lookahead: extra look-ahead time for the velocity cap [s] (default: 2 a/j, the
             time the jerk-limited progress needs to change its acceleration).
         max_joint_step: joint-path integration step [rad]; sigma_tolerance: see
-            :func:`joint_path`; nullspace_gain: joint centring for redundant arms [1/m].
+            `joint_path`; nullspace_gain: joint centring for redundant arms [1/m].
         check_fraction: accept the plan when the planned discrete motion stays below this
             fraction of every limit; otherwise shrink the margins (``max_iterations``).
         check_jerk: also require the planned joint jerk to stay below ``check_fraction·jmax``

@@ -1,4 +1,4 @@
-"""Inverse kinematics: the joint positions that put the tool at a pose (:func:`ik`).
+"""Inverse kinematics: the joint positions that put the tool at a pose (`ik`).
 
 Damped Newton iterations on the servoing pose error
 
@@ -30,7 +30,7 @@ __all__ = ["ik", "IKResult"]
 
 @dataclass(frozen=True, kw_only=True)
 class IKResult:
-    """The outcome of :func:`ik`.
+    """The outcome of `ik`.
 
     Attributes:
         q: the final joint positions (n,) (read-only).
@@ -86,7 +86,7 @@ def ik(chain, T_target, q0, *, tol: float | tuple[float, float] = (1e-9, 1e-9), 
         max_step: largest joint change per iteration [rad or m] (``math.inf``: none).
 
     Returns:
-        An :class:`IKResult`; ``converged`` is False (not an exception) when the target is
+        An `IKResult`; ``converged`` is False (not an exception) when the target is
         not reached — out of reach, or a singular start that Newton cannot leave.
 
     Raises:

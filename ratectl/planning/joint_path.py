@@ -79,7 +79,7 @@ def _tangent(J, t, z, *, redundant: bool):
 
 
 def _kind(chain, q) -> str | None:
-    """The singularity kind from :func:`ratectl.analyze` (None if unavailable)."""
+    """The singularity kind from `ratectl.analyze` (None if unavailable)."""
     try:
         return str(analyze(chain, q).kind)
     except RatectlError:  # the kind only decorates a message
@@ -92,7 +92,7 @@ def joint_path(chain, path, q0, *, max_joint_step: float = 0.004, max_step: floa
     """Integrate the joint path q(s) along ``path`` from ``q0`` (step 1 of the governor).
 
     Args:
-        chain: the arm; path: a :class:`ratectl.paths.Path`; q0: joint positions at the start
+        chain: the arm; path: a `ratectl.paths.Path`; q0: joint positions at the start
             (fk(q0) must be within ``pose_tolerance`` [m / rad] of the path start; it is
             corrected onto it by Newton iterations).
         max_joint_step: largest joint change per integration step [rad].

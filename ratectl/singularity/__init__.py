@@ -1,7 +1,7 @@
 """Singularity analysis: measures, classification, explanations and workspace scans.
 
-Modules: :mod:`.measures`, :mod:`.structure`, :mod:`.analysis` (classify, analyze),
-:mod:`.scan` (scan, path distance), :mod:`.gradient`, :mod:`.maps`.
+Modules: `.measures`, `.structure`, `.analysis` (classify, analyze),
+`.scan` (scan, path distance), `.gradient`, `.maps`.
 
 Measures (all batched over the leading dimensions of a (..., 6, n) Jacobian):
 
@@ -16,10 +16,10 @@ Measures (all batched over the leading dimensions of a (..., 6, n) Jacobian):
   entry is dimensionless and σ_min(J_L) is comparable between arms and between
   translation and rotation.
 
-:func:`analyze` returns a :class:`SingularityReport` for one configuration: the
+`analyze` returns a `SingularityReport` for one configuration: the
 measures, the rank, the lost task-space directions and joint-space null vectors, the
 kind of singularity ("regular", "wrist", "elbow", "shoulder", "boundary",
-"rank-deficient"), a numeric closeness and a plain-language reason. :func:`scan` does
+"rank-deficient"), a numeric closeness and a plain-language reason. `scan` does
 the measures and the classification for many configurations at once.
 
 Classification (see ``docs/singularity.md`` for the derivation). Everything is computed

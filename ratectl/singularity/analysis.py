@@ -1,10 +1,11 @@
-"""Classify a configuration and explain it: :func:`classify` (fast kind) and :func:`analyze`
-(a :class:`SingularityReport` with lost directions, null vectors and a plain-language reason).
+"""Classify a configuration and explain it: `classify` (fast kind) and `analyze`
+(a `SingularityReport` with lost directions, null vectors and a plain-language reason).
 """
 
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -89,6 +90,7 @@ def _core(chain, J, L, rtol, near, factor_tol, raw):
     kind = _classify(smin, geo, st, near, factor_tol)
     st_v = _fast_singular_values(J[..., :3, :])
     st_w = _fast_singular_values(J[..., 3:, :])
+    kind = np.where((kind == _REGULAR) & _translation_lost(chain, st_v, L, near), _BOUNDARY, kind)
     out = dict(
         sigma_scaled=s, sigma_min_scaled=smin, manipulability=w, manipulability_scaled=w_s,
         condition_scaled=_cond(smax, smin, False),
@@ -111,7 +113,7 @@ def classify(chain, q=None, *, J=None, length: float | None = None, near: float 
              factor_tol: float = DEFAULT_FACTOR_TOL) -> tuple[str, float]:
     """Fast kind of one configuration: ``(kind, σ_min(J_L))`` — for control loops.
 
-    The same classification as :func:`analyze` and :func:`scan` (identical results), but
+    The same classification as `analyze` and `scan` (identical results), but
     regular configurations cost one small eigenvalue problem (~20 µs) and the geometry
     is only evaluated when σ_min(J_L) < ``near``.
 
@@ -119,7 +121,7 @@ def classify(chain, q=None, *, J=None, length: float | None = None, near: float 
         chain: the robot model.
         q: joint positions (n,); not needed when ``J`` is given.
         J: the Jacobian (6, n) at q (base axes, tool origin) if already computed.
-        length, near, factor_tol: as in :func:`analyze`.
+        length, near, factor_tol: as in `analyze`.
     """
     if J is None:
         if q is None:
@@ -134,15 +136,17 @@ def classify(chain, q=None, *, J=None, length: float | None = None, near: float 
     JL = J[None].copy()
     JL[..., :3, :] /= L
     smin = _fast_singular_values(JL)[..., -1]
+    lost = chain.dof < 6 and bool(_translation_lost(chain, _fast_singular_values(J[None, :3]), L, near)[0])
     if smin[0] >= near:
-        return "regular", float(smin[0])
+        return ("boundary" if lost else "regular"), float(smin[0])
     geo = _geometry(J[None], structure(chain), L, smin < near)
-    return KINDS[int(_classify(smin, geo, structure(chain), near, factor_tol)[0])], float(smin[0])
+    kind = int(_classify(smin, geo, structure(chain), near, factor_tol)[0])
+    return KINDS[_BOUNDARY if kind == _REGULAR and lost else kind], float(smin[0])
 
 
 @dataclass(frozen=True, kw_only=True)
 class SingularityReport:
-    """Singularity analysis of one configuration (see :func:`analyze`).
+    """Singularity analysis of one configuration (see `analyze`).
 
     Measures: ``sigma`` (raw singular values of J, mixed units), ``sigma_scaled``
     (of J_L = diag(I/L, I)·J, dimensionless), ``sigma_min``/``sigma_min_scaled``,
@@ -151,7 +155,7 @@ class SingularityReport:
     ``inverse_condition`` (σ_m/σ₁ of J_L), translational (J_v, m/rad) and rotational
     (J_ω, rad/rad) sub-measures.
 
-    Classification: ``kind`` ∈ :data:`KINDS`, ``singular`` (rank < min(6, n)),
+    Classification: ``kind`` ∈ `KINDS`, ``singular`` (rank < min(6, n)),
     ``near_singular`` (σ_min(J_L) < ``near``), ``causes`` (every named kind whose factor
     is below ``factor_tol``), ``factors`` (the geometric factors of 6-joint arms, see the module docstring),
     ``joint_distance`` (first-order estimate σ_min(J_L)/‖∇_q σ_min(J_L)‖ [rad] of how far
@@ -305,6 +309,24 @@ def _reason(kind, report_bits, J, geo, st: ArmStructure, L) -> str:
     return txt
 
 
+def _translation_lost(chain, st_v, L: float, near: float):
+    """For arms with fewer than 6 joints: the tool point has lost a translation direction
+    it has at generic configurations (a stretched or folded planar arm), from the
+    singular values of J_v (B, k) — that is the singularity that matters for such an arm
+    (its 6×n Jacobian may keep full column rank through the angular rows)."""
+    if chain.dof >= 6:
+        return np.zeros(st_v.shape[:-1], dtype=bool)
+    generic = _GENERIC_TRANSLATION_RANK.get(chain)
+    if generic is None:
+        Jr = chain.jacobian(chain.random_q(8, rng=0))
+        generic = max(int(np.sum(np.linalg.svd(Jk[:3], compute_uv=False) > 1e-9 * L)) for Jk in Jr)
+        _GENERIC_TRANSLATION_RANK[chain] = generic
+    return np.sum(st_v > near * L, axis=-1) < generic
+
+
+_GENERIC_TRANSLATION_RANK: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def analyze(chain, q, *, length: float | None = None, rtol: float = DEFAULT_RTOL,
             near: float = DEFAULT_NEAR, factor_tol: float = DEFAULT_FACTOR_TOL) -> SingularityReport:
     """Full singularity analysis of ``chain`` at one configuration q (n,).
@@ -319,7 +341,7 @@ def analyze(chain, q, *, length: float | None = None, rtol: float = DEFAULT_RTOL
         factor_tol: a geometric factor (sine of an angle) below this names the kind.
 
     Returns:
-        A frozen :class:`SingularityReport`.
+        A frozen `SingularityReport`.
     """
     a = chain.check_q(q)
     if a.ndim != 1:
@@ -351,6 +373,13 @@ def analyze(chain, q, *, length: float | None = None, rtol: float = DEFAULT_RTOL
     bits = dict(singular=singular, near=bool(smin < near), smin=smin, near_thr=near, rank=rk,
                 u_min=u_min, v_min=v_min, trans_rank_lost=bool(sv[-1] < near * L), trans_smin=float(sv[-1]))
     reason = _reason(kind, bits, J, geo, st, L)
+    if kind == _BOUNDARY and not bits["near"]:      # set by _translation_lost (n < 6)
+        pre = "singular" if bits["trans_smin"] <= 1e-9 * L else "near-singular"
+        reason = (f"{pre} workspace boundary: the tool point cannot translate in one direction "
+                  f"(σ_min(J_v) = {bits['trans_smin']:.3g} m/rad, the arm is stretched or folded); "
+                  f"lost: {_direction_phrase(bits['u_min'])}")
+    if singular:
+        jdist = 0.0      # on the singular set (the first-order estimate is meaningless there)
     W = T[:3, 3] + geo["W"] if st.wrist_point is not None else None
     det_arm = det_wrist = wc = None
     if st.spherical_wrist and n == 6:

@@ -16,7 +16,7 @@ def manipulability_gradient(chain, q, *, length: float | None = None) -> np.ndar
     """Analytic gradient ∂w/∂q of the Yoshikawa manipulability, (n,) or (..., n).
 
     With J = U Σ Vᵀ (thin SVD, m = min(6, n) singular values) and the kinematic Hessian
-    H_k = ∂J/∂q_k (:mod:`ratectl.hessian`), ∂σ_i/∂q_k = u_iᵀ H_k v_i, so
+    H_k = ∂J/∂q_k (`ratectl.hessian`), ∂σ_i/∂q_k = u_iᵀ H_k v_i, so
 
         ∂w/∂q_k = Σ_i (Π_{j≠i} σ_j) · u_iᵀ H_k v_i,
 
@@ -28,7 +28,7 @@ def manipulability_gradient(chain, q, *, length: float | None = None) -> np.ndar
         chain: the robot model.
         q: joint positions (n,) or (..., n).
         length: if given, the gradient of the unit-consistent w(J_L) (J_L = diag(I/L, I)·J,
-            H scaled the same way); default the raw w(J) of :func:`manipulability`.
+            H scaled the same way); default the raw w(J) of `manipulability`.
 
     Returns:
         ∂w/∂q in the units of w per rad (or per m for prismatic joints).

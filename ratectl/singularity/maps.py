@@ -20,7 +20,7 @@ _MEASURES = ("manipulability", "manipulability_scaled", "sigma_min_scaled", "inv
 
 @dataclass(frozen=True, kw_only=True)
 class WorkspaceMap:
-    """A 2-D map of a singularity measure (see :func:`workspace_map`).
+    """A 2-D map of a singularity measure (see `workspace_map`).
 
     ``values[iy, ix]`` is the measure at (``x[ix]``, ``y[iy]``); NaN where no sample fell
     (plane mode). ``kind_code`` (joints mode) gives the kind at every grid point.
@@ -141,7 +141,7 @@ def workspace_map(chain, *, joints: tuple[int, int] | None = None, plane: str | 
 
 def plot_workspace_map(wmap: WorkspaceMap, *, ax=None, cmap: str = "viridis", colorbar: bool = True,
                        show_kinds: bool = True):
-    """Plot a :class:`WorkspaceMap` with matplotlib (imported here; ``pip install ratectl[plot]``).
+    """Plot a `WorkspaceMap` with matplotlib (imported here; ``pip install ratectl[plot]``).
 
     In joints mode with ``show_kinds``, the near-singular grid points are outlined by
     kind (white contours labelled wrist/elbow/shoulder/...). Returns the Axes.

@@ -1,5 +1,5 @@
-"""Many configurations at once: :func:`scan` (batched classification), :func:`path_distance`,
-and the task directions a chain can never move in (:func:`fixed_lost_directions`).
+"""Many configurations at once: `scan` (batched classification), `path_distance`,
+and the task directions a chain can never move in (`fixed_lost_directions`).
 """
 
 from __future__ import annotations
@@ -28,9 +28,9 @@ __all__ = ['scan', 'ScanResult', 'path_distance', 'PathDistance', 'fixed_lost_di
 # ====================================================================== batched scan
 @dataclass(frozen=True, kw_only=True)
 class ScanResult:
-    """Measures over a batch of configurations (see :func:`scan`); arrays of shape batch + (...).
+    """Measures over a batch of configurations (see `scan`); arrays of shape batch + (...).
 
-    ``kind_code`` indexes :data:`KINDS`; :attr:`kinds` gives the names. ``sigma_scaled``
+    ``kind_code`` indexes `KINDS`; `kinds` gives the names. ``sigma_scaled``
     are the singular values of J_L (batch + (m,)); ``sigma`` and ``condition`` (raw J)
     are present only with ``raw=True``.
     """
@@ -79,12 +79,12 @@ def scan(chain, qs, *, length: float | None = None, rtol: float = DEFAULT_RTOL,
     Args:
         chain: the robot model.
         qs: joint positions (..., n).
-        length, rtol, near, factor_tol: as in :func:`analyze`.
+        length, rtol, near, factor_tol: as in `analyze`.
         raw: also compute the singular values and condition number of the raw J (one
             more batched SVD).
 
     Returns:
-        A frozen :class:`ScanResult`; entry ``[i]`` equals the corresponding field of
+        A frozen `ScanResult`; entry ``[i]`` equals the corresponding field of
         ``analyze(chain, qs[i], ...)``.
     """
     a = chain.check_q(qs, name="qs")
@@ -126,7 +126,7 @@ def scan(chain, qs, *, length: float | None = None, rtol: float = DEFAULT_RTOL,
 
 @dataclass(frozen=True, kw_only=True)
 class PathDistance:
-    """Distance to singularity along a path of configurations (see :func:`path_distance`).
+    """Distance to singularity along a path of configurations (see `path_distance`).
 
     Attributes (one entry per configuration):
         s: cumulative joint-space arc length ‖Δq‖ summed along the path [rad, mixed
@@ -137,7 +137,7 @@ class PathDistance:
         manipulability: Yoshikawa w of the raw J.
         joint_distance: σ_min(J_L)/‖∇_q σ_min(J_L)‖, a first-order estimate of the
             joint-space distance to the singular set [rad].
-        kind_code: as in :class:`ScanResult`; ``kinds`` gives names.
+        kind_code: as in `ScanResult`; ``kinds`` gives names.
         closest: index of the configuration with the smallest σ_min(J_L).
     """
 

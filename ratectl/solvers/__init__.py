@@ -4,25 +4,25 @@ Every solver is an object with the same call::
 
     result = solver.solve(J, xi, *, limits=None, q=None, qd_prev=None, dt=None)
 
-and returns a frozen :class:`SolveResult`. ``limits`` is anything with the arrays
-``lower``, ``upper``, ``vmax``, ``amax`` (a :class:`~ratectl.Chain` works, or
-:class:`Limits`). Non-QP solvers use only ``vmax``, through their velocity-limit
+and returns a frozen `SolveResult`. ``limits`` is anything with the arrays
+``lower``, ``upper``, ``vmax``, ``amax`` (a `Chain` works, or
+`Limits`). Non-QP solvers use only ``vmax``, through their velocity-limit
 policy (``"scale"``: scale q̇ uniformly so that no joint exceeds its limit, which keeps
 the direction of motion; ``"clip"``: clip each joint; ``None``: ignore the limits).
-The QP (:class:`ratectl.solvers.QP`) also uses ``q`` and ``dt``
+The QP (`ratectl.solvers.QP`) also uses ``q`` and ``dt``
 (position limits) and ``qd_prev`` and ``dt`` (acceleration limits);
-:class:`NullSpace` uses ``q`` for its secondary objective.
+`NullSpace` uses ``q`` for its secondary objective.
 
 Solvers (m task rows, n joints; σ_i, u_i, v_i are the singular values and left/right
 singular vectors of J):
 
-* :class:`Inverse` — q̇ = J⁻¹ξ (square J); raises :class:`SingularityError`.
-* :class:`PseudoInverse` — q̇ = Σ_{σ_i > tol} σ_i⁻¹ v_i u_iᵀ ξ (truncated).
-* :class:`DLS` — q̇ = Jᵀ(JJᵀ + λ²I)⁻¹ξ, fixed λ; ‖q̇‖ ≤ ‖ξ‖/(2λ).
-* :class:`AdaptiveDLS` — λ scheduled on σ_min (``mode="sigma"``), per direction
+* `Inverse` — q̇ = J⁻¹ξ (square J); raises `SingularityError`.
+* `PseudoInverse` — q̇ = Σ_{σ_i > tol} σ_i⁻¹ v_i u_iᵀ ξ (truncated).
+* `DLS` — q̇ = Jᵀ(JJᵀ + λ²I)⁻¹ξ, fixed λ; ‖q̇‖ ≤ ‖ξ‖/(2λ).
+* `AdaptiveDLS` — λ scheduled on σ_min (``mode="sigma"``), per direction
   (``mode="filtered"``) or on the manipulability (``mode="manipulability"``).
-* :class:`SDLS` — selectively damped least squares (Buss & Kim 2005).
-* :class:`NullSpace` — a primary solver plus a secondary objective projected into the
+* `SDLS` — selectively damped least squares (Buss & Kim 2005).
+* `NullSpace` — a primary solver plus a secondary objective projected into the
   null space of J (Liégeois 1977).
 
 Task weights (``task_weights=``: a (m,) vector, ``"position"`` or ``"orientation"``)

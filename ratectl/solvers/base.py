@@ -1,5 +1,5 @@
-"""The common parts of every inverse-velocity solver: :class:`Limits`, :class:`SolveResult`,
-the :class:`Solver` base class (weights, the velocity-limit policy, input checks).
+"""The common parts of every inverse-velocity solver: `Limits`, `SolveResult`,
+the `Solver` base class (weights, the velocity-limit policy, input checks).
 """
 
 from __future__ import annotations
@@ -376,10 +376,10 @@ class Solver:
         Args:
             J: Jacobian (m, n), rows [linear; angular] in SI units.
             xi: desired twist (m,) [m/s; rad/s].
-            limits: joint limits (a Chain or :class:`Limits`); non-QP solvers use
+            limits: joint limits (a Chain or `Limits`); non-QP solvers use
                 ``vmax`` through the velocity-limit policy.
             q, qd_prev, dt: current joint positions, previous joint velocities and the
-                step [s]; used by the QP and by :class:`NullSpace` (``q``).
+                step [s]; used by the QP and by `NullSpace` (``q``).
         """
         J, xi = _check_problem(J, xi)
         n = J.shape[1]

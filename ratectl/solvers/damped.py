@@ -104,7 +104,7 @@ class AdaptiveDLS(Solver):
     * ``"manipulability"`` (Nakamura & Hanafusa 1986): w = √det(JJᵀ);
       λ² = λ_max²·(1 − w/w₀)² when w < w₀, else 0 (``manipulability_threshold`` = w₀).
 
-    In every mode the per-direction gain is at most :meth:`gain_bound`
+    In every mode the per-direction gain is at most `gain_bound`
     (``1/(2λ_max√(1 − λ_max²/ε²))`` or ``1/ε``, whichever is larger) in the σ modes,
     and each call reports ``info["gain_bound"]``, the bound for that call
     (``‖q̇‖ ≤ gain_bound·‖ξ‖``).

@@ -24,7 +24,7 @@ def _svd(J):
 class Inverse(Solver):
     """Exact inverse q̇ = J⁻¹ξ for a square J.
 
-    Raises :class:`SingularityError` (carrying ``sigma_min`` and ``tolerance``) when
+    Raises `SingularityError` (carrying ``sigma_min`` and ``tolerance``) when
     σ_min(J) < ``tolerance`` [same units as J's singular values].
     """
 

@@ -1,5 +1,5 @@
 """Null-space objectives (joint centring, manipulability, any gradient) and the
-:class:`NullSpace` solver that projects them (Liégeois 1977).
+`NullSpace` solver that projects them (Liégeois 1977).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ class JointCentring:
 
     H(q) = ½ Σ ((q_i − c_i)/r_i)², c = (lower + upper)/2, r = (upper − lower)/2;
     the secondary velocity is z = −∇H = −(q − c)/r² [1/rad]. Joints without finite
-    limits are left alone. ``limits`` is a Chain or :class:`Limits`.
+    limits are left alone. ``limits`` is a Chain or `Limits`.
     """
 
     def __init__(self, limits) -> None:
@@ -41,7 +41,7 @@ class JointCentring:
 
 class Manipulability:
     """Secondary objective: increase the manipulability w(q) = √det(JJᵀ) of ``chain``;
-    z = ∇w(q) from :func:`ratectl.singularity.manipulability_gradient`."""
+    z = ∇w(q) from `ratectl.singularity.manipulability_gradient`."""
 
     def __init__(self, chain) -> None:
         self.chain = chain
@@ -96,7 +96,7 @@ class NullSpace(Solver):
     **undamped, truncated** pseudo-inverse (singular values ≤ ``tolerance`` dropped).
     With that projector J(I − J⁺J) = 0 up to the dropped σ's, so the secondary motion
     never leaks into the task even when the primary solver is damped (a damped J⁺
-    would give J(I − J⁺_λ J) ≠ 0). Needs ``q=`` in :meth:`solve`.
+    would give J(I − J⁺_λ J) ≠ 0). Needs ``q=`` in `solve`.
 
     Args:
         primary: any solver (called without limits, so its velocity policy does not act;
@@ -104,7 +104,7 @@ class NullSpace(Solver):
             the added null-space motion is not bounded by them: for a limit-aware
             secondary objective use ``QP(objective=...)``.
         objective: ``"centring"``, ``"manipulability"`` (both need ``chain``), a
-            :class:`JointCentring`, :class:`Manipulability` or :class:`Gradient`, or any
+            `JointCentring`, `Manipulability` or `Gradient`, or any
             callable q -> (n,) returning the desired secondary joint velocity.
         gain: k [1/s], the gain on z.
         chain: the chain, for the string objectives.
@@ -126,7 +126,7 @@ class NullSpace(Solver):
         self.method = f"nullspace({primary.method})"
 
     def solve(self, J, xi, *, limits=None, q=None, qd_prev=None, dt=None) -> SolveResult:
-        """As :meth:`Solver.solve`; ``q`` (n,) is required for the objective."""
+        """As `Solver.solve`; ``q`` (n,) is required for the objective."""
         J, xi = _check_problem(J, xi)
         m, n = J.shape
         if q is None:

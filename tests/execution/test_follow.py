@@ -1,6 +1,6 @@
 """Path following through singular neighbourhoods: governor, time law, exact inverse, other arms.
 
-The UR5e line (DESIGN/issue acceptance): constant orientation, 0.2 m/s, passing the
+The UR5e wrist line: constant orientation, 0.2 m/s, passing the
 wrist singularity (q5 = 0) at a closest approach of |q5| = 0.01 rad, where the exact
 inverse would need ~20 rad/s (vmax = π rad/s).
 """

@@ -238,3 +238,36 @@ def test_unsupported_mjcf_structures_name_the_element():
                 "</body></worldbody></mujoco>", element="<geom>")
     assert "typo" in str(e)
     _raises(rc.Chain.from_mjcf, "<robot/>", element="<robot>")
+
+
+# --------------------------------------------------------------------------- gripper joint, no tip
+def _arm_with_jaw(jaw_name="finger_joint", jaw_type="prismatic", child="left_finger"):
+    links = ["base"] + [f"l{i}" for i in range(1, 7)] + ["hand", child]
+    joints = []
+    for i in range(1, 7):
+        axis = "0 0 1" if i % 2 else "0 1 0"
+        joints.append(f'<joint name="j{i}" type="revolute"><parent link="{links[i - 1]}"/>'
+                      f'<child link="l{i}"/><origin xyz="0 0 0.1"/><axis xyz="{axis}"/>'
+                      '<limit lower="-3" upper="3" velocity="2" effort="1"/></joint>')
+    joints.append('<joint name="hand_fixed" type="fixed"><parent link="l6"/><child link="hand"/>'
+                  '<origin xyz="0 0 0.05"/></joint>')
+    joints.append(f'<joint name="{jaw_name}" type="{jaw_type}"><parent link="hand"/><child link="{child}"/>'
+                  '<axis xyz="0 1 0"/><limit lower="0" upper="0.04" velocity="0.1" effort="1"/></joint>')
+    body = "".join(f'<link name="{lk}"/>' for lk in links) + "".join(joints)
+    return f'<robot name="jaw">{body}</robot>'
+
+
+@pytest.mark.parametrize("jaw_name, jaw_type, child", [
+    ("finger_joint", "prismatic", "left_finger"),
+    ("slide", "prismatic", "pad"),                  # a 7th prismatic joint after six revolute ones
+    ("gripper_knuckle", "revolute", "knuckle_link"),
+])
+def test_urdf_without_tip_refuses_a_gripper_joint(tmp_path, jaw_name, jaw_type, child):
+    f = tmp_path / "jaw.urdf"
+    f.write_text(_arm_with_jaw(jaw_name, jaw_type, child))
+    with pytest.raises(rc.ImportModelError) as info:
+        rc.Chain.from_urdf(f)
+    msg = str(info.value)
+    assert jaw_name in msg and "tip='hand'" in msg and f"tip={child!r}" in msg
+    assert rc.Chain.from_urdf(f, tip="hand").dof == 6
+    assert rc.Chain.from_urdf(f, tip=child).dof == 7

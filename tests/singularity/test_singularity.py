@@ -298,9 +298,14 @@ def test_rpr_rank_and_directions_it_never_moves_in(rng):
 def test_planar2r_stretched_loses_translation_only():
     arm = rc.robots.planar2r()
     r = rc.analyze(arm, np.array([0.3, 0.0]))
-    # the 6×2 J keeps rank 2 (the angular rows differ), the tool point cannot move radially
-    assert r.rank == 2 and r.kind == "regular"
-    assert r.sigma_translational[-1] < 1e-12 and "translational part" in r.reason
+    # the 6×2 J keeps rank 2 (the angular rows differ), but the tool point cannot move
+    # radially: for an arm with fewer than 6 joints that is a workspace boundary
+    assert r.rank == 2 and r.kind == "boundary"
+    assert r.sigma_translational[-1] < 1e-12 and "stretched or folded" in r.reason
+    assert rc.scan(arm, np.array([[0.3, 0.0], [0.3, math.pi], [0.3, 1.0]])).kinds.tolist() == \
+        ["boundary", "boundary", "regular"]
+    assert rc.singularity.classify(arm, [0.3, 0.0])[0] == "boundary"
+    assert rc.analyze(rc.robots.rpr(), [0.6, 0.35, -0.4]).kind == "regular"   # v_z is lost everywhere
 
 
 # ---------------------------------------------------------------- redundant arms

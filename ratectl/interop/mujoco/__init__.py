@@ -1,19 +1,19 @@
 """MuJoCo and mink interop: export to MJCF, MuJoCo/mink kinematics, mink limits, simulation.
 
-* :func:`to_mjcf` writes a chain as an MJCF model (capsule links, hinge/slide joints
+* `to_mjcf` writes a chain as an MJCF model (capsule links, hinge/slide joints
   with limits, a ``tool`` site, optional position/velocity actuators and obstacles)
   whose kinematics equal ratectl's to rounding.
-* :func:`mujoco_fk_jacobian` evaluates a MuJoCo model's frame pose and Jacobian in
+* `mujoco_fk_jacobian` evaluates a MuJoCo model's frame pose and Jacobian in
   ratectl's conventions.
-* :class:`MinkKinematics` is a chain-compatible kinematics source backed by a
-  ``mink.Configuration`` (MuJoCo's kinematics), for :class:`ratectl.ResolvedRateController`.
-* :func:`mink_inequalities` and :class:`MinkLimitedSolver` turn mink limits — in
+* `MinkKinematics` is a chain-compatible kinematics source backed by a
+  ``mink.Configuration`` (MuJoCo's kinematics), for `ratectl.ResolvedRateController`.
+* `mink_inequalities` and `MinkLimitedSolver` turn mink limits — in
   particular ``mink.CollisionAvoidanceLimit`` — into velocity-level inequality rows
   ``G q̇ ≤ h`` for ratectl's QP.
-* :func:`simulate` closes the loop through MuJoCo's physics and records an
-  :class:`~ratectl.execution.Execution` like :func:`ratectl.follow`;
-  :func:`render_frames` renders configurations offscreen; :class:`MujocoDriver` is a
-  MuJoCo model behind the :class:`ratectl.drivers.Driver` protocol, for :func:`ratectl.run`.
+* `simulate` closes the loop through MuJoCo's physics and records an
+  `Execution` like `ratectl.follow`;
+  `render_frames` renders configurations offscreen; `MujocoDriver` is a
+  MuJoCo model behind the `ratectl.drivers.Driver` protocol, for `ratectl.run`.
 
 ``mujoco`` and ``mink`` (the ``ratectl[mujoco]`` extra) are imported here only;
 the rest of ratectl never needs them.

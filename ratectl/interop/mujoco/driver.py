@@ -1,8 +1,8 @@
-"""A MuJoCo model as a robot: :class:`MujocoDriver` (the :class:`ratectl.drivers.Driver` protocol).
+"""A MuJoCo model as a robot: `MujocoDriver` (the `ratectl.drivers.Driver` protocol).
 
 Also reachable as ``ratectl.drivers.MujocoDriver`` (imported on first use there).
 Each ``command(qd)`` advances the physics by one control ``period`` — the same servo
-scheme as :func:`~ratectl.interop.mujoco.simulate`:
+scheme as `simulate`:
 
 * ``"position"`` servos (force = kp·(u − q) − kv·q̇) track the commanded ramp with velocity
   feed-forward, ``u(τ) = q_k + q̇·τ + (kv/kp)·q̇`` (τ: time since the command);
@@ -36,11 +36,11 @@ class MujocoDriver:
     Args:
         chain: the arm; its joint names select the model's joints and actuators.
         model_or_xml: an ``MjModel``, MJCF text or path; None exports ``chain`` with
-            :func:`~ratectl.interop.mujoco.to_mjcf` and actuators of the requested kind.
+            `to_mjcf` and actuators of the requested kind.
         q0: initial joint positions (n,) [rad or m]; the arm starts at rest.
         period: physics time advanced per command [s]; a whole multiple of the model time step.
         actuation: ``"position"`` or ``"velocity"`` servos.
-        stop_time: how long :meth:`stop` may step the physics to bring the arm to rest [s].
+        stop_time: how long `stop` may step the physics to bring the arm to rest [s].
 
     Attributes:
         model, data: the MuJoCo model and data (e.g. to render or read contacts).

@@ -146,7 +146,7 @@ def to_mjcf(chain: Chain, *, name: str | None = None, radius: float = 0.03,
 
 def _check_export_options(chain, *, actuators, radius, kp, kv, timestep, density, armature,
                           damping) -> float:
-    """Validate :func:`to_mjcf`'s options; returns the velocity gain kv (its default filled in)."""
+    """Validate `to_mjcf`'s options; returns the velocity gain kv (its default filled in)."""
     if not isinstance(chain, Chain):
         raise InputError(f"chain must be a ratectl.Chain, got {type(chain).__name__}",
                          argument="chain", value=chain)
@@ -227,7 +227,7 @@ def _body_lines(chain: Chain, *, radius: float, site: str, gravity_compensation:
 def compile_mjcf(model_or_xml):
     """An ``MjModel`` from an ``MjModel`` (returned as is), MJCF text or a file path.
 
-    Text and files go through :meth:`ratectl.Chain.from_mjcf`'s safety
+    Text and files go through `ratectl.Chain.from_mjcf`'s safety
     checks (no DTD/entities, mesh files ignored).
     """
     return _compile_mjcf(model_or_xml)

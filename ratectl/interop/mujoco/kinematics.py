@@ -67,8 +67,8 @@ class MinkKinematics:
     convention by ``J = blockdiag(R, R) · ᴮJ`` (world axes, linear part at the frame
     origin) and restricted to the chain's dofs. Limits, names, ``dof`` and every
     other attribute come from ``chain`` (by default imported from the same model with
-    :meth:`ratectl.Chain.from_mjcf`), so a
-    :class:`~ratectl.ResolvedRateController` can use this object in place of a chain.
+    `ratectl.Chain.from_mjcf`), so a
+    `ResolvedRateController` can use this object in place of a chain.
 
     Joints of the model that are not in the chain keep their values in
     ``configuration.data.qpos`` (they are treated as fixed).
@@ -129,7 +129,7 @@ class MinkKinematics:
 
     def fk_jacobian(self, q, *, frame: str = "base", point=None):
         """``(T_world_frame, J)`` from MuJoCo via mink; ``frame``/``point`` as in
-        :meth:`ratectl.Chain.jacobian`."""
+        `ratectl.Chain.jacobian`."""
         a = self.chain.check_q(q)
         batch = a.shape[:-1]
         flat = a.reshape(-1, a.shape[-1])

@@ -96,18 +96,18 @@ class MinkLimitedSolver:
     """Wrap a ratectl QP so that every solve also obeys mink limits.
 
     On ``solve(J, xi, *, q, dt, ...)`` the kinematics' mink configuration is updated to
-    ``q``, the limits are turned into velocity rows by :func:`mink_inequalities` and
+    ``q``, the limits are turned into velocity rows by `mink_inequalities` and
     passed to the wrapped solver as ``extra_inequalities=(G, h)`` (``G q̇ ≤ h``).
 
     Args:
-        kinematics: the :class:`MinkKinematics` whose configuration the limits read.
+        kinematics: the `MinkKinematics` whose configuration the limits read.
         limits: mink ``Limit`` objects (e.g. ``mink.CollisionAvoidanceLimit``).
         solver: a solver accepting ``extra_inequalities`` (default ``ratectl.solvers.QP()``).
         drop_acceleration_on_conflict: when the QP is infeasible (the rows and the
             acceleration bounds |q̇ − q̇_prev| ≤ amax·dt conflict), solve again without the
             acceleration bounds — the distance comes first — and say so in
             ``result.info["acceleration_bounds_dropped"]``; False re-raises the
-            :class:`~ratectl.errors.SolverError`.
+            `SolverError`.
 
     Choosing the gain: the rows let the distance close at most at ``gain·(d − d_min)/dt``
     [m/s], an exponential approach at rate ``gain/dt``; braking from a closing speed v

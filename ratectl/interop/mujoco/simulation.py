@@ -1,4 +1,4 @@
-"""Close the loop through MuJoCo's physics (:func:`simulate`) and render configurations.
+"""Close the loop through MuJoCo's physics (`simulate`) and render configurations.
 """
 
 from __future__ import annotations
@@ -165,7 +165,7 @@ def _cmd_attr(cmd, *names, default=math.nan):
 
 
 class SimulationLog:
-    """What :func:`simulate` measured besides the execution record (arrays over steps)."""
+    """What `simulate` measured besides the execution record (arrays over steps)."""
 
     def __init__(self, *, qd_command, tau, min_distance, substeps, actuation, physics):
         self.qd_command = qd_command
@@ -206,7 +206,7 @@ def simulate(model_or_xml, chain: Chain, path_or_targets, q0, *, dt: float, cont
 
     Args:
         model_or_xml: an ``MjModel``, MJCF text or path; ``None`` exports the chain with
-            :func:`to_mjcf` and actuators of the requested kind.
+            `to_mjcf` and actuators of the requested kind.
         chain: the ratectl chain of the arm; its joint names select the model's joints
             and actuators.
         path_or_targets: a ratectl path (``pose(t)``, ``twist(t)``, ``duration``), or a
@@ -229,8 +229,8 @@ def simulate(model_or_xml, chain: Chain, path_or_targets, q0, *, dt: float, cont
             (e.g. to grab rendered frames).
 
     Returns:
-        ``(execution, log)``: an :class:`~ratectl.execution.Execution` with the measured
-        t, q, q̇, q̈, tool poses, errors, statuses and σ_min, and a :class:`SimulationLog`
+        ``(execution, log)``: an `Execution` with the measured
+        t, q, q̇, q̈, tool poses, errors, statuses and σ_min, and a `SimulationLog`
         with the commanded q̇, the actuator forces and the recorded distances.
     """
     plant = _Plant.build(model_or_xml, chain, dt=dt, actuation=actuation, frame=frame,
@@ -314,7 +314,7 @@ def simulate(model_or_xml, chain: Chain, path_or_targets, q0, *, dt: float, cont
 
 @dataclasses.dataclass
 class _Plant:
-    """The MuJoCo side of :func:`simulate`: the model, its state, the chain's addresses in it
+    """The MuJoCo side of `simulate`: the model, its state, the chain's addresses in it
     and the actuators that command them."""
 
     model: mujoco.MjModel
@@ -423,7 +423,7 @@ def render_frames(model, data, chain: Chain, qs, *, width: int = 480, height: in
 
 
 def _execution(chain, ref, t, q, qd, poses, desired, commands, *, dt, halted, physics, log_info):
-    """Fill an :class:`~ratectl.execution.Execution` from the recorded arrays."""
+    """Fill an `Execution` from the recorded arrays."""
 
     K = len(t)
     qdd = np.zeros_like(qd)

@@ -35,7 +35,7 @@ so in ``info["conflicts"]``.
 Before any backend runs, the unconstrained minimiser P⁻¹b (the DLS solution) is tried:
 when it lies inside the box (and satisfies G q̇ ≤ h) it is the optimum
 (``info["status"] == "unconstrained"``). For a box-only problem on the default backend a
-few primal active-set steps follow (:func:`_box_active_set`); their answer is accepted
+few primal active-set steps follow (`_box_active_set`); their answer is accepted
 only with a KKT certificate, so it is the exact optimum (``"active-set"``); when they do
 not settle within four steps OSQP answers.
 
@@ -46,7 +46,7 @@ from the previous solution. Re-setup happens only when the structure changes (n,
 the number of extra rows). Tolerances are explicit (1e-7 with solution polishing, so the
 active set is solved exactly), and the final q̇ is clipped into [l, u] when it is outside
 by less than ``tolerance``: limits hold to 1e-6. Other backends (``"daqp"``,
-``"quadprog"``, ``"proxqp"``, …) are called through :func:`qpsolvers.solve_qp`.
+``"quadprog"``, ``"proxqp"``, …) are called through `qpsolvers.solve_qp`.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The per-joint velocity box of one control step from velocity, position and acceleration
-limits (:func:`joint_velocity_bounds`), with the source of every active bound.
+limits (`joint_velocity_bounds`), with the source of every active bound.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ _KIND = {_VEL: "velocity", _POS: "position", _ACC: "acceleration"}
 
 @dataclass(frozen=True, kw_only=True)
 class VelocityBounds:
-    """Per-joint velocity box for one step (see :func:`joint_velocity_bounds`).
+    """Per-joint velocity box for one step (see `joint_velocity_bounds`).
 
     Attributes:
         lower, upper: (n,) bounds on q̇ [rad/s or m/s].
@@ -121,7 +121,7 @@ class _BoundCache:
 
 
 def _box(bc: _BoundCache, q, qd_prev):
-    """Fast path of :func:`_bounds`: (lo, hi, conflicts) without the sources."""
+    """Fast path of `_bounds`: (lo, hi, conflicts) without the sources."""
     n = bc.n
     if q is not None and bc.has_pos and bc.inv_dt is not None:
         D = bc.lim2 - q[bc.idx2] * bc.sgn2
@@ -239,7 +239,7 @@ def _bounds(cache: _BoundCache, q, qd_prev, want_sources: bool):
 def joint_velocity_bounds(limits, *, q=None, qd_prev=None, dt=None, margin: float = 0.0,
                           n: int | None = None) -> VelocityBounds:
     """The per-joint box on q̇ for one step from velocity, position and acceleration
-    limits (see :mod:`ratectl.qp`). ``limits`` is a Chain or :class:`Limits`; ``q``
+    limits (see `ratectl.qp`). ``limits`` is a Chain or `Limits`; ``q``
     (n,) enables the position bounds, ``qd_prev`` (n,) with ``dt`` [s] the acceleration
     bounds; ``margin`` [rad or m] keeps that far from the position limits."""
     if n is None:

@@ -1,4 +1,4 @@
-"""The limit-aware QP solver (:class:`QP`): damped least squares with joint position,
+"""The limit-aware QP solver (`QP`): damped least squares with joint position,
 velocity and acceleration bounds and extra inequality rows.
 """
 
@@ -40,25 +40,25 @@ _zeros = np.zeros
 
 
 class QP(Solver):
-    """Inverse velocity as a QP with joint limits (see :mod:`ratectl.qp` for the
+    """Inverse velocity as a QP with joint limits (see `ratectl.qp` for the
     formulation and the bounds).
 
     Args:
         damping: λ, the joint-velocity regularisation (the DLS damping): with no active
             limit the QP returns exactly the DLS solution Jᵀ(JJᵀ + λ²I)⁻¹ξ.
         backend: ``"osqp"`` (default, kept warm across calls) or any solver name of
-            :func:`qpsolvers.solve_qp` (``"daqp"``, ``"quadprog"``, ``"proxqp"``, …).
+            `qpsolvers.solve_qp` (``"daqp"``, ``"quadprog"``, ``"proxqp"``, …).
         margin: distance kept from the position limits [rad or m].
         task_weights, joint_weights: as for the other solvers (W_x, W_q).
         objective: optional secondary objective (``"centring"``, ``"manipulability"``
             with ``chain``, or a callable q -> desired q̇), added as ½μ‖q̇ − k·z(q)‖²;
-            needs ``q=`` in :meth:`solve`.
+            needs ``q=`` in `solve`.
         objective_weight: μ (small: the term trades task accuracy for the objective).
         objective_gain: k [1/s].
         chain: for the string objectives.
         fallback: on a failed solve return the DLS solution scaled into the velocity
             box (``result.fallback`` = True, ``info["error"]``) instead of raising
-            :class:`SolverError`.
+            `SolverError`.
         tolerance: bound violation up to which q̇ is clipped back into the box (larger
             violations raise), and the distance at which a bound counts as active.
         settings: extra OSQP settings (override the defaults) or backend keywords.
@@ -122,7 +122,7 @@ class QP(Solver):
 
         Args:
             J, xi: Jacobian (m, n) and desired twist (m,).
-            limits: a Chain or :class:`Limits` (None: no bounds, the QP is the DLS).
+            limits: a Chain or `Limits` (None: no bounds, the QP is the DLS).
             q: joint positions (n,): enables the position bounds (and the objective).
             qd_prev: previous joint velocities (n,): with ``dt``, the acceleration bounds.
             dt: the control step [s].
@@ -137,7 +137,7 @@ class QP(Solver):
                 rows G q̇ ≤ h also hold for the total.
 
         Every answer for a box-only problem is certified: it lies in its box and the KKT
-        conditions hold (:func:`~ratectl.solvers.qp.active_set.kkt_violation` ≤ 1e-9);
+        conditions hold (`kkt_violation` ≤ 1e-9);
         an answer that is not (an inaccurate OSQP result) is replaced by the exact
         active-set solution (``info["certified"]`` says which path answered). With extra
         rows the OSQP answer is replaced by the exact solution on its active set when
@@ -145,7 +145,7 @@ class QP(Solver):
         ``"none"``; every answer is checked feasible (box and rows) to the tolerance.
 
         Returns:
-            :class:`~ratectl.solvers.SolveResult` with ``limits_active`` naming the kinds of
+            `SolveResult` with ``limits_active`` naming the kinds of
             bound that hold q̇ and ``info`` = status, iterations, backend, the box
             (``lower``, ``upper``) and any ``conflicts`` resolved by priority.
         """
