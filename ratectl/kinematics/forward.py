@@ -134,16 +134,20 @@ def _single(chain, q):
 
 _tls = threading.local()
 
-_L2_BYTES = 384 * 1024  # working set per chunk: a share of a 512 kB-1 MB L2 cache
-_CHUNK_MIN, _CHUNK_MAX = 256, 4096
+_CHUNK_BYTES = 4 * 1024 * 1024  # result + work rows of one chunk: stays in L2/L3 cache
+_CHUNK_MIN, _CHUNK_MAX = 1024, 8192
 
 
 def _chunk(width: int, nwork: int) -> int:
-    """Columns per batched kernel call: the chunk's result rows and work rows (8 bytes per
-    entry) fit in L2, and each ufunc call still covers enough columns to amortise its
-    ~1 µs overhead. A multiple of 64 columns but not of 512, so that work rows do not
-    alias in the cache (rows 4 kB apart map to the same sets)."""
-    m = _L2_BYTES // (8 * (width + nwork))
+    """Columns per batched kernel call.
+
+    Each generated line is one ufunc call (~0.5-1 µs overhead), so chunks must be long;
+    but the chunk's result rows and work rows (8 bytes per entry) should stay in cache.
+    Measured on the UR5e (width 52, 32 work rows), 4096-8192 columns were best and
+    1024-2048 ~10 % slower. A multiple of 64 columns but not of 512, so that work rows
+    do not alias in the cache (rows a multiple of 4 kB apart map to the same sets).
+    """
+    m = _CHUNK_BYTES // (8 * (width + nwork))
     m = max(_CHUNK_MIN, min(_CHUNK_MAX, m)) // 64 * 64
     return m if m % 512 else m + 64
 
@@ -156,7 +160,7 @@ def _workspace(rows: int, m: int) -> np.ndarray:
         cache = _tls.work = {}
     W = cache.get((rows, m))
     if W is None:
-        if len(cache) >= 8:  # a few kernel shapes per thread, ~0.4 MB each
+        if len(cache) >= 4:  # a few kernel shapes per thread, ~1-2 MB each
             cache.clear()
         W = cache[(rows, m)] = np.empty((rows, m))
     return W
