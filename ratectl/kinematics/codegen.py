@@ -8,9 +8,10 @@ forward recursion symbolically once, fold away every product with 0 and ±1
 ``exec``. The same source runs
 
 * on Python floats (``math.cos``), for one configuration — a few µs;
-* on numpy arrays (``numpy.cos``), for a batch — one ufunc call per line over the
-  whole batch, using the structure of each joint transform instead of generic
-  4×4 products.
+* on numpy arrays, for a batch in chunks of columns — one ufunc call per arithmetic
+  operation, each writing into a preallocated work row or straight into the caller's
+  result (no temporary arrays, no transposing copies), in the same order as the
+  scalar kernel, so batched and looped results agree to rounding.
 
 The recursion for joint i is ``T_i = T_{i-1} · P_i · M_i(q_i) · Q_i`` with constant
 ``P_i``, ``Q_i`` and the joint motion ``M_i`` = Rz(q) (revolute) or Tz(q) (prismatic),
@@ -24,6 +25,7 @@ columns:
 
 from __future__ import annotations
 
+import ast
 import itertools
 import linecache
 import math
@@ -224,11 +226,11 @@ def _live_lines(em: _Emitter, outputs: list) -> list[tuple[str, str]]:
 
 def generate_source(joints, base: np.ndarray, tool: np.ndarray, *, what: str,
                     batched: bool, guard: bool = False) -> str:
-    """Python source of ``kernel(q0, …, q{n-1}[, out])``.
+    """Python source of ``kernel(q0, …, q{n-1})`` or, batched, ``kernel(qT, O, W)``.
 
     ``what`` is ``"fk"`` (16 pose entries), ``"jac"`` (6n Jacobian entries) or
     ``"fkjac"`` (both). Scalar kernels return a flat tuple of floats; batched
-    kernels fill ``out`` of shape ``(k, B)`` row by row and return it.
+    kernels write the k entries into the rows of ``O`` (see `_batched_source`).
     """
     em, frame, axes = _symbolic_chain(joints, base, tool)
     outputs: list = []
@@ -256,74 +258,193 @@ def generate_source(joints, base: np.ndarray, tool: np.ndarray, *, what: str,
     return "\n".join(body) + "\n"
 
 
-_UFUNC = {"+": "add", "-": "subtract", "*": "multiply"}
+_UFUNC = {ast.Add: "add", ast.Sub: "subtract", ast.Mult: "multiply"}
 
 
-def _split_last(expr: str):
-    """Split ``expr`` at its last top-level operator: (left, op, right), or None."""
-    i_plus, i_minus = expr.rfind(" + "), expr.rfind(" - ")
-    i = max(i_plus, i_minus)
-    if i >= 0:
-        return expr[:i], expr[i + 1], expr[i + 3:]
-    i = expr.rfind("*")
-    if i >= 0 and not expr.startswith("-"):
-        return expr[:i], "*", expr[i + 1:]
+def _const(node) -> float | None:
+    """The value of a numeric literal node (``0.5``, ``-0.425``), else None."""
+    if isinstance(node, ast.Constant):
+        return float(node.value)
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+        v = _const(node.operand)
+        return None if v is None else -v
     return None
 
 
-def _batched_source(n: int, lines, outputs) -> str:
-    """Batched kernel ``kernel(q, out, first)``: q is (n, m), out is (k, m).
+def _negate(node):
+    """An expression tree for ``-node`` with no extra operation, or None.
 
-    Trigonometric functions run once over the whole (n, m) block. Output rows are
-    computed in place (``out=`` of the last ufunc of their expression); constant
-    outputs are written only when ``first`` is true (the buffer is reused).
+    Exact in IEEE arithmetic (rounding is symmetric): −(a − b) = b − a,
+    −(a·c) = a·(−c), −(a + b) = (−a) − b.
     """
-    body = ["def kernel(q, out, first):"]
-    body += [f"    q{i} = q[{i}]" for i in range(n)]
-    first_use: dict[str, int] = {}
-    for k, v in enumerate(outputs):
-        if isinstance(v, str) and not v.startswith("-") and v not in first_use:
-            first_use[v] = k
-    defined_in_place = set()
-    for target, expr in lines:
-        if expr.startswith("cos(q"):
-            # cos and sin from one SIMD tan of the half angle (numpy's float64 tan is
-            # ~6x faster than its cos/sin): t = tan(q/2), cos q = (1 − t²)/(1 + t²),
-            # sin q = 2t/(1 + t²); exact to ~1 ulp, finite for every finite q.
-            i = expr[5:-1]
-            body.append(f"    h{i} = tan(q{i}*0.5)")
-            body.append(f"    hh{i} = h{i}*h{i}")
-            body.append(f"    hi{i} = 1.0/(1.0 + hh{i})")
-            body.append(f"    {target} = (1.0 - hh{i})*hi{i}")
+    c = _const(node)
+    if c is not None:
+        return ast.Constant(-c)
+    if isinstance(node, ast.BinOp):
+        if isinstance(node.op, ast.Sub):
+            return ast.BinOp(node.right, ast.Sub(), node.left)
+        if isinstance(node.op, ast.Mult):
+            if _const(node.right) is not None:
+                return ast.BinOp(node.left, ast.Mult(), ast.Constant(-_const(node.right)))
+            if _const(node.left) is not None:
+                return ast.BinOp(ast.Constant(-_const(node.left)), ast.Mult(), node.right)
+            return None
+        if isinstance(node.op, ast.Add):
+            left = _negate(node.left)
+            if left is not None:
+                return ast.BinOp(left, ast.Sub(), node.right)
+    return None
+
+
+class _Registers:
+    """Work rows ``r0, r1, …`` of the batched kernel, reused as values die (a stack, so
+    the most recently freed row, still in cache, is taken first)."""
+
+    def __init__(self) -> None:
+        self.free: list[str] = []
+        self.count = 0
+
+    def take(self) -> str:
+        if self.free:
+            return self.free.pop()
+        self.count += 1
+        return f"r{self.count - 1}"
+
+    def give(self, name: str) -> None:
+        self.free.append(name)
+
+
+def _batched_source(n: int, lines, outputs) -> str:
+    """Source of the batched kernel ``kernel(qT, O, W)`` and of ``NWORK``, its number of work rows.
+
+    * ``qT`` (n, m): joint positions, one row per joint (any strides);
+    * ``O``: k rows of length m (any strides), one per output entry — typically the
+      transposed view of a chunk of the caller's (B, k) result, so that the result is
+      written in place, with no transposing copy afterwards;
+    * ``W`` (2n + R, m): work rows, float64: cos q, sin q and R registers.
+
+    Every generated line is one numpy ufunc call writing into a preallocated row
+    (``out=``): no temporary arrays. The operations, and their order, are those of the
+    single-configuration kernel (the expressions are the same, parsed with `ast`),
+    and numpy's cos/sin are called on the same values, so the batched result equals
+    the looped one to rounding (bit for bit where numpy's cos/sin agree with libm's).
+    An output entry is computed directly into its output row; ``−x`` outputs are
+    computed negated where that costs nothing (``b − a`` for ``−(a − b)``).
+    """
+    k_out = len(outputs)
+    # where each value is needed: expression uses (line index) and output slots
+    last_use: dict[str, int] = {}
+    parsed = []
+    for idx, (_target, expr) in enumerate(lines):
+        if expr.startswith(("cos(q", "sin(q")):
+            parsed.append(None)
             continue
-        if expr.startswith("sin(q"):
-            i = expr[5:-1]
-            body.append(f"    {target} = (h{i} + h{i})*hi{i}")
-            continue
-        k = first_use.get(target)
-        split = _split_last(expr) if k is not None else None
-        if split is None:
-            body.append(f"    {target} = {expr}")
-            continue
-        left, op, right = split
-        body.append(f"    {target} = {_UFUNC[op]}({left}, {right}, out=out[{k}])")
-        defined_in_place.add(target)
-    consts = []
+        tree = ast.parse(expr, mode="eval").body
+        parsed.append(tree)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Name):
+                last_use[node.id] = idx
+    slots: dict[str, list[tuple[int, bool]]] = {}
     for k, v in enumerate(outputs):
         if isinstance(v, str):
-            if v in defined_in_place and first_use[v] == k:
-                continue
-            if v.startswith("-"):
-                body.append(f"    negative({v[1:]}, out=out[{k}])")
-            else:
-                body.append(f"    out[{k}] = {v}")
+            slots.setdefault(v.lstrip("-"), []).append((k, v.startswith("-")))
+
+    home: dict[str, str] = {}  # value name -> local holding it (positive)
+    regs = _Registers()
+    body: list[str] = []
+    for i in range(n):
+        home[f"q{i}"] = f"q{i}"
+    for idx, (target, expr) in enumerate(lines):
+        tree = parsed[idx]
+        if tree is None:  # cos(q_i) or sin(q_i): rows of the work array
+            i = int(expr[5:-1])
+            home[target] = f"{'c' if expr.startswith('cos') else 's'}q{i}"
+            _emit_copies(body, target, home[target], False, slots.get(target, []))
+            continue
+        uses = slots.get(target, [])
+        used_later = last_use.get(target, -1) > idx
+        dest, negated = None, False
+        pos = [k for k, neg in uses if not neg]
+        if pos:
+            dest = f"o{pos[0]}"
+        elif uses and not used_later:
+            neg_tree = _negate(tree)
+            if neg_tree is not None:
+                tree, dest, negated = neg_tree, f"o{uses[0][0]}", True
+        if dest is None:
+            dest = regs.take()
+            scratch_home = True
         else:
-            consts.append(f"        out[{k}] = {float(v)!r}")
-    if consts:
-        body.append("    if first:")
-        body += consts
-    body.append("    return out")
-    return "\n".join(body) + "\n"
+            scratch_home = False
+        _emit_tree(body, tree, dest, home, regs)
+        home[target] = dest
+        _emit_copies(body, target, dest, negated, uses)
+        # values whose last use was this line free their registers
+        for node in ast.walk(parsed[idx]):
+            if isinstance(node, ast.Name) and last_use.get(node.id) == idx:
+                h = home.get(node.id, "")
+                if h.startswith("r") and h not in regs.free:
+                    regs.give(h)
+        if scratch_home and not used_later:
+            regs.give(dest)
+
+    head = ["def kernel(qT, O, W):"]
+    head.append(f"    cos(qT, out=W[:{n}])")
+    head.append(f"    sin(qT, out=W[{n}:{2 * n}])")
+    names = [f"cq{i}" for i in range(n)] + [f"sq{i}" for i in range(n)]
+    names += [f"r{j}" for j in range(regs.count)]
+    head.append(f"    ({', '.join(names)},) = W")
+    if any(f"q{i}" in last_use for i in range(n)):  # prismatic joints use q itself
+        head.append(f"    ({', '.join(f'q{i}' for i in range(n))},) = qT")
+    head.append(f"    ({', '.join(f'o{k}' for k in range(k_out))},) = O")
+    for k, v in enumerate(outputs):
+        if not isinstance(v, str):
+            body.append(f"    o{k}.fill({float(v)!r})")
+    head.insert(0, f"NWORK = {2 * n + regs.count}  # rows of W: cos q, sin q, registers\n\n")
+    return "\n".join(head + body) + "\n"
+
+
+def _emit_copies(body, target, src, negated, uses) -> None:
+    """Write value ``target`` (held in ``src``, negated if ``negated``) to its other output rows."""
+    for k, neg in uses:
+        if f"o{k}" == src:
+            continue
+        if neg == negated:
+            body.append(f"    copyto(o{k}, {src})")
+        else:
+            body.append(f"    negative({src}, out=o{k})")
+
+
+def _emit_tree(body, tree, dest, home, regs) -> None:
+    """One ufunc call per binary operation of ``tree``; the root writes into ``dest``."""
+
+    def operand(node) -> tuple[str, bool]:
+        c = _const(node)
+        if c is not None:
+            return repr(c), False
+        if isinstance(node, ast.Name):
+            return home[node.id], False
+        return emit(node, None), True
+
+    def emit(node, out):
+        if not isinstance(node, ast.BinOp) or type(node.op) not in _UFUNC:
+            raise ValueError(f"unexpected expression node {ast.dump(node)}")
+        left, lt = operand(node.left)
+        right, rt = operand(node.right)
+        if out is None:
+            out = left if lt else right if rt else regs.take()
+        for name, temp in ((left, lt), (right, rt)):
+            if temp and name != out:
+                regs.give(name)
+        body.append(f"    {_UFUNC[type(node.op)]}({left}, {right}, out={out})")
+        return out
+
+    if isinstance(tree, ast.Name):
+        body.append(f"    copyto({dest}, {home[tree.id]})")
+    elif _const(tree) is not None:
+        body.append(f"    {dest}.fill({_const(tree)!r})")
+    else:
+        emit(tree, dest)
 
 
 _SERIAL = itertools.count()
@@ -340,8 +461,8 @@ def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str =
     src = generate_source(joints, base, tool, what=what, batched=batched,
                           guard=guard is not None and not batched)
     if batched:
-        namespace = {"tan": np.tan, "add": np.add, "subtract": np.subtract,
-                     "multiply": np.multiply, "negative": np.negative}
+        namespace = {"cos": np.cos, "sin": np.sin, "add": np.add, "subtract": np.subtract,
+                     "multiply": np.multiply, "negative": np.negative, "copyto": np.copyto}
     else:
         namespace = {"cos": math.cos, "sin": math.sin}
         if guard is not None:
@@ -359,4 +480,5 @@ def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str =
     exec(compile(src, filename, "exec"), namespace)
     fn = namespace["kernel"]
     fn.__source__ = src
+    fn.__nwork__ = namespace.get("NWORK", 0)
     return fn

@@ -18,7 +18,9 @@ set before ratectl is imported, every kernel is replaced by the plain reference
 implementation (`ratectl.kinematics.reference`), for debugging.
 
 Thread safety: kernels are compiled once per chain and are pure functions; batched
-calls use per-thread work buffers. Any number of threads may evaluate the same chain.
+calls use per-thread work arrays and write only into the arrays they return. Any number
+of threads may evaluate the same chain or different chains at once, with results equal
+bit for bit to a serial run.
 """
 
 from __future__ import annotations
@@ -52,8 +54,6 @@ KERNEL_MODE = "reference" if os.environ.get("RATECTL_KERNELS", "").strip().lower
 
 #: Chains with more joints than this use the reference kernel (no generated code).
 MAX_GENERATED_DOF = 64
-
-_CHUNK = 8192  # columns per batched kernel call: fits L2, amortises ufunc overhead
 _FRAMES = ("base", "tool")
 
 
@@ -107,10 +107,12 @@ def _reference_kernel(chain, what: str, batched: bool):
     def scalar_kernel(*q):
         return tuple(flat(np.array(q, dtype=float)).tolist())
 
-    def batched_kernel(q, out, first):
-        out[...] = flat(np.ascontiguousarray(q.T)).T
-        return out
+    def batched_kernel(qT, O, W):
+        vals = flat(np.ascontiguousarray(qT.T))
+        for k, row in enumerate(O):
+            row[...] = vals[:, k]
 
+    batched_kernel.__nwork__ = 0
     return batched_kernel if batched else scalar_kernel
 
 
@@ -139,21 +141,61 @@ def _single(chain, q):
 
 _tls = threading.local()
 
+_CHUNK_BYTES = 4 * 1024 * 1024  # result + work rows of one chunk: stays in L2/L3 cache
+_CHUNK_MIN, _CHUNK_MAX = 1024, 8192
 
-def _work_buffers(n: int, width: int, m: int):
-    """Per-thread kernel work buffers (width, m) and (n, m), reused across calls: fresh
-    multi-megabyte buffers cost a page fault per 4 kB on first touch, which at B = 10⁴
-    was a third of the batched Jacobian's time."""
-    cache = getattr(_tls, "buffers", None)
+
+def _chunk(width: int, nwork: int) -> int:
+    """Columns per batched kernel call.
+
+    Each generated line is one ufunc call (~0.5-1 µs overhead), so chunks must be long;
+    but the chunk's result rows and work rows (8 bytes per entry) should stay in cache.
+    Measured on the UR5e (width 52, 32 work rows), 4096-8192 columns were best and
+    1024-2048 ~10 % slower. A multiple of 64 columns but not of 512, so that work rows
+    do not alias in the cache (rows a multiple of 4 kB apart map to the same sets).
+    """
+    m = _CHUNK_BYTES // (8 * (width + nwork))
+    m = max(_CHUNK_MIN, min(_CHUNK_MAX, m)) // 64 * 64
+    return m if m % 512 else m + 64
+
+
+def _workspace(rows: int, m: int) -> np.ndarray:
+    """A per-thread (rows, m) float64 work array, reused across calls: fresh buffers cost
+    page faults on first touch, and sharing one between threads would race."""
+    cache = getattr(_tls, "work", None)
     if cache is None:
-        cache = _tls.buffers = {}
-    key = (n, width, m)
-    bufs = cache.get(key)
-    if bufs is None:
-        if len(cache) >= 4:  # a few (n, width, chunk) shapes; ~2.5 MB each at most
+        cache = _tls.work = {}
+    W = cache.get((rows, m))
+    if W is None:
+        if len(cache) >= 4:  # a few kernel shapes per thread, ~1-2 MB each
             cache.clear()
-        bufs = cache[key] = (np.empty((width, m)), np.empty((n, m)))
-    return bufs
+        W = cache[(rows, m)] = np.empty((rows, m))
+    return W
+
+
+def _batched(chain, flat: np.ndarray, what: str, parts) -> None:
+    """Run the batched kernel over ``flat`` (B, n), writing into ``parts``: C-contiguous
+    result arrays (B, k_j) whose columns, concatenated, are the kernel's k outputs.
+
+    The kernel reads the joint positions through a transposed view and writes each
+    output entry straight into the transposed views of the results, chunk by chunk.
+    """
+    B = flat.shape[0]
+    kern = _kernel(chain, what, True)
+    width = sum(p.shape[1] for p in parts)
+    nwork = kern.__nwork__
+    m = _chunk(width, nwork)
+    if B < m:
+        m = B
+    W = _workspace(nwork, m)
+    qT = flat.T
+    outT = [p.T for p in parts]
+    for start in range(0, B, m):
+        stop = min(start + m, B)
+        rows = []
+        for o in outT:
+            rows.extend(o[:, start:stop])
+        kern(qT[:, start:stop], rows, W if stop - start == m else W[:, :stop - start])
 
 
 def _run(chain, q, what: str, width: int):
@@ -167,21 +209,9 @@ def _run(chain, q, what: str, width: int):
         return np.array(_kernel(chain, what, False)(*a.tolist())), ()
     check_prismatic_range(chain, a)
     flat = a.reshape(-1, chain._n)
-    B = flat.shape[0]
-    out = np.empty((B, width))
-    kern = _kernel(chain, what, True)
-    m0 = min(B, _CHUNK)
-    buf, qbuf = _work_buffers(chain._n, width, m0)
-    for start in range(0, B, _CHUNK):
-        stop = min(start + _CHUNK, B)
-        m = stop - start
-        if m == m0:
-            b, qc = buf, qbuf
-        else:
-            b, qc = np.empty((width, m)), np.empty((chain._n, m))
-        qc[...] = flat[start:stop].T
-        kern(qc, b, start == 0 or b is not buf)
-        out[start:stop] = b.T
+    out = np.empty((flat.shape[0], width))
+    if out.size:
+        _batched(chain, flat, what, [out])
     return out, batch
 
 
@@ -260,9 +290,17 @@ def jacobian(chain, q, *, frame: str = "base", point=None) -> np.ndarray:
 def fk_jacobian(chain, q, *, frame: str = "base", point=None):
     """``(T_world_tool, J)`` evaluated together; see `fk` and `jacobian`."""
     n = chain._n
-    vals, batch = _run(chain, q, "fkjac", 16 + 6 * n)
-    T = vals[..., :16].reshape(batch + (4, 4))
-    J = vals[..., 16:].reshape(batch + (6, n))
+    vals = _single(chain, q)
+    if vals is not None or (a := chain.check_q(q)).ndim == 1:
+        flat = np.array(_kernel(chain, "fkjac", False)(*(vals if vals is not None else a.tolist())))
+        T, J = flat[:16].reshape(4, 4), flat[16:].reshape(6, n)
+    else:
+        batch = a.shape[:-1]
+        qs = a.reshape(-1, n)
+        T, J = np.empty((qs.shape[0], 16)), np.empty((qs.shape[0], 6 * n))
+        if qs.shape[0]:
+            _batched(chain, qs, "fkjac", [T, J])
+        T, J = T.reshape(batch + (4, 4)), J.reshape(batch + (6, n))
     if frame == "base" and point is None:
         return T, J
     check_frame(frame)
