@@ -22,6 +22,7 @@ import ratectl as rc
 DATA = os.path.join(os.path.dirname(__file__), "..", "data")
 POS_TOL = 1e-4                  # m
 ORI_TOL = math.radians(0.01)    # rad
+MAX_TURN = math.radians(30.0)   # rad
 
 
 def _franky_fr3_urdf() -> str | None:
@@ -93,7 +94,7 @@ def _regular_along(chain, q0, q1, sigma=0.03, margin=0.05) -> bool:
 
 
 def make_cases(name: str, chain, count: int, *, seed: int = 0, steps=(0.01, 0.2),
-               max_turn=math.radians(30.0)) -> list[Case]:
+               max_turn=MAX_TURN) -> list[Case]:
     """``count`` reachable step targets for ``chain``: a random regular start inside the
     limits, a step of random length in ``steps`` [m] in a random direction and a random
     turn up to ``max_turn``; kept only if :func:`ratectl.ik` reaches it from the start with
