@@ -40,7 +40,7 @@ from ..model.limits import (
     braking_speed_discrete,
     stopping_distance,
 )
-from ..spatial import pose_error_into
+from ..spatial import pose_error_into, rigid_transform_defect
 from .command import _RANK, STATUSES, Command, make_command
 from .smoothing import ProgressProfile, VelocityFilter
 
@@ -152,6 +152,7 @@ class ResolvedRateController:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
         self._progress = None
+        self._target_ok = None  # the last target found rigid (checked again only when it changes)
         self.filter = None
         if smoothing is not False and smoothing is not None:
             if smoothing is True:
@@ -310,6 +311,12 @@ class ResolvedRateController:
         if bad is not None:
             self._latched = f"non-finite {bad} (NaN or inf); reset() to resume"
             return self._halt(q, dt, self._latched)
+        if target is not None and not (self._target_ok is not None
+                                       and np.array_equal(target, self._target_ok)):
+            defect = rigid_transform_defect(target)
+            if defect is not None:  # a scaled, sheared or mirrored pose: no motion toward it
+                return self._halt(q, dt, f"target {defect}")
+            self._target_ok = target.copy()
         if stamp is not None and target is not None:
             age = self.time - float(stamp)
             if not age <= self.timeout:
