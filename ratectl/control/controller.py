@@ -34,13 +34,19 @@ import numpy as np
 
 from .. import solvers
 from ..errors import InputError, RatectlError, SingularityError
-from ..model.limits import Limits, braking_speed, braking_speed_discrete, stopping_distance
-from ..spatial import pose_error_into
+from ..model.limits import (
+    Limits,
+    braking_speed,
+    braking_speed_discrete,
+    stopping_distance,
+)
+from ..spatial import pose_error_into, rigid_transform_defect
 from .command import _RANK, STATUSES, Command, make_command
-from .smoothing import VelocityFilter
+from .smoothing import ProgressProfile, VelocityFilter
 
 __all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver"]
 
+_APPROACH_ETA = 0.5  # fraction of amax (and jmax) the approach to a target plans its braking with
 _BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
 _NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
 
@@ -56,13 +62,16 @@ class _Cycle:
     """The working state of one control cycle, passed from stage to stage."""
 
     __slots__ = ("J", "e", "ep", "eo", "xi", "target", "res", "qd", "qdd", "q_next", "flags", "reasons",
-                 "active", "scale", "smin", "braking")
+                 "active", "scale", "smin", "braking", "approach", "qdd_ff", "approach_qd")
 
     def __init__(self) -> None:
         self.flags: list[str] = []
         self.reasons: list[str] = []
         self.active: list[str] = []
         self.braking = None
+        self.approach = 1.0
+        self.qdd_ff = None
+        self.approach_qd = None
         self.scale = 1.0
         self.smin = math.nan
 
@@ -106,6 +115,8 @@ class ResolvedRateController:
             raise InputError(f"gain must be a non-negative scalar or 6 values [1/s], got {gain!r}",
                              argument="gain", value=gain)
         self.gain = K
+        kmax = float(K.max())
+        self._inv_kmax = 1.0 / kmax if kmax > 0.0 else 0.0
         if isinstance(limits, str):
             if limits != "chain":
                 raise InputError(f"limits must be 'chain', None or a limits object, got {limits!r}",
@@ -140,6 +151,8 @@ class ResolvedRateController:
         else:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
+        self._progress = None
+        self._target_ok = None  # the last target found rigid (checked again only when it changes)
         self.filter = None
         if smoothing is not False and smoothing is not None:
             if smoothing is True:
@@ -227,6 +240,10 @@ class ResolvedRateController:
         halt = self._solve(cyc, q, dt, qd_ff)
         if halt is not None:
             return halt
+        if target is not None and qd_ff is None and (twist is None or not twist.any()):
+            halt = self._approach(cyc, q, dt)
+            if halt is not None:
+                return halt
         self._limit(cyc, q, dt)
         if (not cyc.flags and target is not None and qd_ff is None
                 and (twist is None or not twist.any()) and cyc.ep <= self.position_tolerance
@@ -294,6 +311,12 @@ class ResolvedRateController:
         if bad is not None:
             self._latched = f"non-finite {bad} (NaN or inf); reset() to resume"
             return self._halt(q, dt, self._latched)
+        if target is not None and not (self._target_ok is not None
+                                       and np.array_equal(target, self._target_ok)):
+            defect = rigid_transform_defect(target)
+            if defect is not None:  # a scaled, sheared or mirrored pose: no motion toward it
+                return self._halt(q, dt, f"target {defect}")
+            self._target_ok = target.copy()
         if stamp is not None and target is not None:
             age = self.time - float(stamp)
             if not age <= self.timeout:
@@ -346,6 +369,86 @@ class ResolvedRateController:
         if res.velocity_policy != "none":
             cyc.flags.append("velocity-scaled")
         return None
+
+    # --- stage 3b: the approach to a target
+    def _approach(self, cyc: _Cycle, q, dt) -> Command | None:
+        """Shape the feedback q̇ = solver(J, K e) so that the arm can still stop at the
+        target within the joint limits (pure servoing: a target, no feed-forward).
+
+        The joint travel still to go is, to first order, w = J⁺e = q̇/K (the solver is
+        linear in ξ; for a vector gain the largest K, which under-estimates w: the safe
+        side). Joint i may approach at most at the speed from which it can stop within
+        w_i: ``braking_speed_discrete`` at η·amax in periods of dt (the discrete
+        √(2 η amax w)), or, smoothed, :func:`~ratectl.model.limits.braking_speed` at η·amax,
+        η·jmax — and 0 when the filter's own state (v, a) one period ahead could no longer
+        stop within w_i. q̇ is scaled uniformly by the smallest ratio, so the tool keeps its
+        straight approach; η = 1/2 keeps headroom for the change of J along the way. Far
+        from the target (K·w below the braking speed) this is the proportional law.
+        A solver that enforces limits itself (the QP) solves again with the scaled twist."""
+        qd = cyc.qd
+        if self._inv_kmax == 0.0 or self.limits is None:
+            return None
+        speed = np.abs(qd)
+        w = speed * self._inv_kmax
+        f = self.filter
+        moving = speed > 0.0
+        if not moving.any():
+            return None
+        if f is not None:
+            r, cyc.qdd_ff = self._approach_smoothed(cyc, qd, speed, moving, dt)
+        elif self._has_a:
+            adt = self._amax_f * (_APPROACH_ETA * dt)
+            b = braking_speed_discrete(w, adt, 1.0 / (adt * dt), 1.0 / dt)
+            r = float(np.min(b[moving] / speed[moving]))
+        else:
+            return None
+        if r >= 1.0:
+            cyc.approach_qd = cyc.qd
+            return None
+        cyc.approach = r
+        cyc.flags.append("acceleration-limited")
+        cyc.reasons.append(f"approach to the target slowed to {r:.3g}× its proportional speed to stop "
+                           "there within amax")
+        if getattr(self.solver, "enforces_limits", False):
+            cyc.xi = cyc.xi * r
+            return self._solve(cyc, q, dt, None)
+        cyc.xi = cyc.xi * r
+        cyc.qd = cyc.approach_qd = qd * r
+        return None
+
+    def _approach_smoothed(self, cyc: _Cycle, qd, speed, moving, dt):
+        """The approach law for the jerk-limited filter, on the scalar progress x = ‖e‖
+        toward the target. The joints move as q̇ = ẋ·d with d = q̇_solver/(K x) (= J⁺ê, so
+        the tool moves straight along ê), hence the progress may move at ẋ ≤ minᵢ vmaxᵢ/|dᵢ|,
+        accelerate at α = η·minᵢ amaxᵢ/|dᵢ| and jerk at ζ = η·minᵢ jmaxᵢ/|dᵢ|. From the
+        filter's state projected on d (ṡ = v·d/d·d, s̈ = a·d/d·d), a
+        :class:`~ratectl.control.smoothing.ProgressProfile` (Ruckig, one degree of freedom)
+        gives the time-optimal motion that comes to rest at x; one period of it, capped by
+        the proportional law ẋ ≤ K x, is the command. Its acceleration s̈·d is passed to the
+        filter as the target acceleration: the reference is feasible, so the filter follows
+        it without lag (no lag to turn into overshoot). Returns (r, q̈_ff): the scale of q̇
+        and that acceleration."""
+        f = self.filter
+        x = float(np.linalg.norm(cyc.e))
+        K = 1.0 / self._inv_kmax
+        if x <= 0.0:
+            return 1.0, None
+        d = qd * (self._inv_kmax / x)
+        ad = np.abs(d)[moving]
+        vcap = float(np.min(f.vmax[moving] / ad))
+        alpha = _APPROACH_ETA * float(np.min(f.amax[moving] / ad))
+        zeta = _APPROACH_ETA * float(np.min(f.jmax[moving] / ad))
+        dd = float(d @ d)
+        s_v = min(max(float(self._qd @ d) / dd, -vcap), vcap)
+        s_a = min(max(float(self._qdd @ d) / dd, -alpha), alpha)
+        if self._progress is None:
+            self._progress = ProgressProfile(dt)
+        nxt = self._progress.step(x, s_v, s_a, vmax=max(min(vcap, K * x), 1e-12), amax=alpha, jmax=zeta,
+                                  dt=dt)
+        if nxt is None:
+            return 1.0, None
+        v1, a1 = nxt
+        return v1 / (K * x), d * a1
 
     # --- stage 4: the limits
     def _limit(self, cyc: _Cycle, q, dt) -> None:
@@ -448,6 +551,9 @@ class ResolvedRateController:
         if self.filter is not None:
             if abs(self.filter.dt - dt) > 1e-15:
                 self.filter.dt = dt
+            if qdd_ff is None and cyc.qdd_ff is not None and cyc.qd is cyc.approach_qd:
+                # the approach's acceleration belongs to its q̇: not to one limited since
+                qdd_ff = cyc.qdd_ff
             try:
                 cyc.q_next, cyc.qd, cyc.qdd = self.filter.update(q, cyc.qd, qdd_ff, independent=cyc.braking)
             except RatectlError as err:

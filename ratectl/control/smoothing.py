@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import InputError, SolverError
 
-__all__ = ["VelocityFilter", "JointTrajectory", "move", "stop"]
+__all__ = ["VelocityFilter", "ProgressProfile", "JointTrajectory", "move", "stop"]
 
 
 def _limit_array(value, n: int, name: str) -> np.ndarray:
@@ -141,6 +141,11 @@ class VelocityFilter:
         inp.target_velocity = vt.tolist()
         if qdd_target is not None:
             ta = np.minimum(np.maximum(qdd_target, -self.amax), self.amax)
+            # a target acceleration that pushes the target velocity outward must leave room to
+            # stop accelerating before vmax: |a| ≤ √(2·jmax·(vmax − |v|)) in that direction
+            # (without this a non-zero target acceleration at the velocity limit overran it)
+            room = np.sqrt(2.0 * self.jmax * np.maximum(self.vmax - np.abs(vt), 0.0))
+            ta = np.where(ta * vt > 0.0, np.sign(ta) * np.minimum(np.abs(ta), room), ta)
             if independent is not None:
                 ta = np.where(independent, 0.0, ta)  # a braking joint arrives at rest acceleration
             inp.target_acceleration = ta.tolist()
@@ -164,6 +169,48 @@ class VelocityFilter:
         out = self._out
         out.pass_to_input(inp)
         return np.array(out.new_position), np.array(out.new_velocity), np.array(out.new_acceleration)
+
+
+
+class ProgressProfile:
+    """A scalar, jerk-limited motion toward a goal distance, one period at a time (Ruckig's
+    position interface with one degree of freedom): the controller's approach to a target
+    plans its progress x [m, rad or a mix, as the pose error] with it, so that the motion
+    comes to rest at the target within the (mapped) joint limits."""
+
+    def __init__(self, dt: float) -> None:
+        import ruckig
+
+        self._ruckig = ruckig
+        self._otg = ruckig.Ruckig(1, float(dt))
+        self._inp = ruckig.InputParameter(1)
+        self._out = ruckig.OutputParameter(1)
+        self._inp.current_position = [0.0]
+        self._inp.target_velocity = [0.0]
+        self._inp.target_acceleration = [0.0]
+        self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
+
+    def step(self, x: float, v: float, a: float, *, vmax: float, amax: float, jmax: float,
+             dt: float):
+        """From progress 0 at speed ``v`` and acceleration ``a``, the time-optimal motion to
+        rest at ``x`` under |ẋ| ≤ vmax, |ẍ| ≤ amax, |x⃛| ≤ jmax: returns its (speed,
+        acceleration) one period ``dt`` later, or None if Ruckig finds no motion."""
+        if self._otg.delta_time != dt:
+            self._otg.delta_time = dt
+        inp = self._inp
+        inp.current_velocity = [v]
+        inp.current_acceleration = [a]
+        inp.target_position = [x]
+        inp.max_velocity = [vmax]
+        inp.max_acceleration = [amax]
+        inp.max_jerk = [jmax]
+        try:
+            res = self._otg.update(inp, self._out)
+        except self._ruckig.RuckigError:
+            return None
+        if res not in self._ok:
+            return None
+        return self._out.new_velocity[0], self._out.new_acceleration[0]
 
 
 @dataclass(frozen=True)

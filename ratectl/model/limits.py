@@ -23,7 +23,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["Limits", "braking_speed_discrete", "stopping_distance", "braking_speed"]
+__all__ = ["Limits", "braking_speed_discrete", "stopping_distance", "braking_speed", "braking_speed_slope"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -162,3 +162,19 @@ def braking_speed(d, amax, jmax) -> np.ndarray:
     J = np.asarray(jmax, dtype=float)
     k = A * A / J
     return np.where(d <= A**3 / (J * J), np.cbrt(d * d * J), 0.5 * (-k + np.sqrt(k * k + 8.0 * A * d)))
+
+
+def braking_speed_slope(d, amax, jmax) -> np.ndarray:
+    """The derivative db/dd [1/s] of :func:`braking_speed` b(d): a joint braking along that
+    curve toward a point at distance d decelerates at b'(d)·b(d), so a command that
+    follows the curve has acceleration −b'(d)·b(d) (≤ amax, jerk-limited near d = 0):
+
+        b' = (2/3)·b/d                   for d ≤ A³/J²,
+        b' = 2A/√(A⁴/J² + 8·A·d)         otherwise.
+    """
+    d = np.maximum(np.asarray(d, dtype=float), 1e-300)
+    A = np.asarray(amax, dtype=float)
+    J = np.asarray(jmax, dtype=float)
+    k = A * A / J
+    return np.where(d <= A**3 / (J * J), (2.0 / 3.0) * braking_speed(d, A, J) / d,
+                    2.0 * A / np.sqrt(k * k + 8.0 * A * d))

@@ -367,3 +367,37 @@ def test_the_stages_of_a_cycle_are_separate_methods(ur5e):
     assert ctrl._smooth(cyc, q, dt, None) is None
     cmd = ctrl._command(cyc, q, dt)
     assert np.allclose(cmd.q_next, q + cmd.qd * dt) and cmd.status == "acceleration-limited"
+
+
+@pytest.mark.parametrize("bad", ["scaled", "mirrored", "sheared", "last-row", "nan"])
+def test_a_target_that_is_not_a_rigid_pose_halts_with_the_reason(ur5e, bad):
+    ctrl = rc.ResolvedRateController(ur5e)
+    good = _shifted(ur5e.fk(Q_REG), [0.05, 0.0, 0.0])
+    q = Q_REG.copy()
+    for _ in range(50):  # moving toward a good target
+        cmd = ctrl.step(q, target=good, dt=1e-3)
+        q = cmd.q_next
+    moving = np.abs(cmd.qd).max()
+    assert moving > 0.0
+    T = good.copy()
+    if bad == "scaled":
+        T[:3, :3] *= 2.0
+    elif bad == "mirrored":
+        T[:3, 0] *= -1.0
+    elif bad == "sheared":
+        T[0, 1] += 0.1
+    elif bad == "last-row":
+        T[3, 0] = 0.5
+    else:
+        T[1, 2] = np.nan
+    cmd = ctrl.step(q, target=T, dt=1e-3)  # never raises in the loop
+    assert cmd.status == "halted" and "target" in cmd.reason
+    if bad in ("scaled", "mirrored", "sheared"):
+        assert "rigid" in cmd.reason
+    assert np.abs(cmd.qd).max() < moving  # decelerating
+    assert np.all(np.abs(cmd.qd - ctrl.qd) == 0.0)
+    with pytest.raises(InputError):  # a wrong shape is a programming error
+        ctrl.step(q, target=T[:3], dt=1e-3)
+    if bad != "nan":  # not latched: the next good target resumes
+        cmd = ctrl.step(cmd.q_next, target=good, dt=1e-3)
+        assert cmd.status != "halted"
