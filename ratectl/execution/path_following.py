@@ -32,7 +32,8 @@ __all__ = ["follow"]
 
 
 def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle: float = 0.5,
-           tolerance: tuple[float, float] = (1e-4, 1.75e-4), approach: bool = True,
+           tolerance: tuple[float, float] = (1e-4, 1.75e-4),
+           path_tolerance: tuple[float, float] = (5e-5, 1.75e-4), approach: bool = True,
            record_kinds: bool = True) -> Execution:
     """Follow ``path`` with ``chain`` from joint positions ``q0``; returns an `Execution`.
 
@@ -45,6 +46,10 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
             `Governor` with custom options.
         settle: time allowed after the schedule to converge on the end pose [s].
         tolerance: (position [m], orientation [rad]) for "completed" at the end pose.
+        path_tolerance: (position [m], orientation [rad]) the governed run must stay within
+            along the whole path; a governed run that leaves the path by more is reported as
+            not completed, with the departure (a time-law run trades path error for time by
+            design and is not checked).
         approach: if fk(q0) is not at the path start, first solve IK for the start pose and move
             there with a jerk-limited joint move (recorded in ``info["approach"]``); if False,
             such a q0 is an error.
@@ -52,6 +57,35 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
             is "damped" or "singular" (evaluated every 20 ms within such a stretch, carried
             over in between).
     """
+    dt, q, ctrl = _validate(chain, path, q0, dt, controller)
+    ctrl.reset()
+    info: dict = {"solver": type(ctrl.solver).__name__, "smoothing": ctrl.filter is not None}
+    # --- reach the start of the path
+    e0 = pose_error(path.start, chain.fk(q))
+    if np.linalg.norm(e0[:3]) > 1e-6 or np.linalg.norm(e0[3:]) > 1e-5:
+        if not approach:
+            raise InputError("q0 is not at the start of the path (fk(q0) is "
+                             f"{np.linalg.norm(e0[:3]) * 1e3:.3g} mm / "
+                             f"{math.degrees(np.linalg.norm(e0[3:])):.3g}° "
+                             "away); pass approach=True", argument="q0", value=q0)
+        info["approach"] = _approach(chain, path, q, dt)
+        q = info["approach"].q[-1].copy()
+    plan, gov = None, None
+    if governor is not False and governor is not None:
+        gov = governor if isinstance(governor, Governor) else Governor(check_jerk=ctrl.filter is not None)
+        plan = gov.plan(chain, path, q, dt=dt)
+        info["plan"] = plan
+    # where the schedule ends: the path end, or where the governor had to stop
+    T_end = path.pose_at(float(plan.s[-1])) if plan is not None and not plan.joint_path.complete \
+        else path.end
+    rec = _run(chain, path, q, ctrl, plan, T_end, dt=dt, settle=settle, tolerance=tolerance,
+               record_kinds=record_kinds)
+    return _evaluate(chain, path, rec, plan, gov, T_end, info, dt=dt, settle=settle, tolerance=tolerance,
+                     path_tolerance=path_tolerance)
+
+
+def _validate(chain, path, q0, dt, controller):
+    """Checked (dt, q0 copy, controller) or InputError."""
     if not isinstance(path, Path):
         raise InputError(f"path must be a ratectl.paths.Path, got {type(path).__name__}", argument="path",
                          value=path)
@@ -73,53 +107,37 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
     if ctrl.chain is not chain and ctrl.chain.dof != chain.dof:
         raise InputError("the controller was built for another chain", argument="controller",
                          value=controller)
-    ctrl.reset()
-    info: dict = {"solver": type(ctrl.solver).__name__, "smoothing": ctrl.filter is not None}
+    return dt, q, ctrl
 
-    # --- reach the start of the path
-    e0 = pose_error(path.start, chain.fk(q))
-    if np.linalg.norm(e0[:3]) > 1e-6 or np.linalg.norm(e0[3:]) > 1e-5:
-        if not approach:
-            raise InputError("q0 is not at the start of the path (fk(q0) is "
-                             f"{np.linalg.norm(e0[:3]) * 1e3:.3g} mm away); pass approach=True",
-                             argument="q0", value=q0)
-        info["approach"] = _approach(chain, path, q, dt)
-        q = info["approach"].q[-1].copy()
 
-    use_gov = governor is not False and governor is not None
-    gov = None
-    if use_gov:
-        gov = governor if isinstance(governor, Governor) else Governor(check_jerk=ctrl.filter is not None)
-        plan = gov.plan(chain, path, q, dt=dt)
-        info["plan"] = plan
-        n_sched = len(plan)
-    else:
-        n_sched = int(math.ceil(path.duration / dt - 1e-9)) + 1
+def _command(ctrl, path, plan, k, q, dt):
+    """The controller command of schedule step k: the plan's feed-forward and pose, or the time law."""
+    if plan is None:
+        s, sd, _ = path.progress(k * dt)
+        return s, ctrl.step(q, target=path.pose_at(s), twist=path.twist_at(s, sd=sd), dt=dt)
+    s = float(plan.s[k])
+    if ctrl.filter is None:
+        return s, ctrl.step(q, target=path.pose_at(s), qd_ff=plan.qd_ff[k], dt=dt)
+    # continuous velocity and acceleration of the plan at the end of the period
+    k1 = min(k + 1, len(plan) - 1)
+    v = 0.5 * (plan.qd_ff[k] + plan.qd_ff[k1])
+    a = (plan.qd_ff[k1] - plan.qd_ff[k]) / dt
+    return s, ctrl.step(q, target=path.pose_at(s), qd_ff=v, qdd_ff=a, dt=dt)
+
+
+def _run(chain, path, q, ctrl, plan, T_end, *, dt, settle, tolerance, record_kinds):
+    """The control loop: the schedule, then up to ``settle`` seconds on the end pose."""
+    n_sched = len(plan) if plan is not None else int(math.ceil(path.duration / dt - 1e-9)) + 1
     n_settle = int(math.ceil(settle / dt))
-
     Q, QD, QDD, ST, S, KINDS = [], [], [], [], [], []
-    # where the schedule ends: the path end, or where the governor had to stop
-    T_end = path.pose_at(float(plan.s[-1])) if use_gov else path.end
     pos_tol, ori_tol = tolerance
-    k = 0
-    halted_reason = ""
+    k, halted_reason = 0, ""
     kind, kind_at, kind_every = None, -(10**9), max(1, round(0.02 / dt))
     while True:
         if k < n_sched:
-            if use_gov:
-                s = float(plan.s[k])
-                if ctrl.filter is None:
-                    cmd = ctrl.step(q, target=path.pose_at(s), qd_ff=plan.qd_ff[k], dt=dt)
-                else:  # continuous velocity and acceleration of the plan at the end of the period
-                    k1 = min(k + 1, n_sched - 1)
-                    v = 0.5 * (plan.qd_ff[k] + plan.qd_ff[k1])
-                    a = (plan.qd_ff[k1] - plan.qd_ff[k]) / dt
-                    cmd = ctrl.step(q, target=path.pose_at(s), qd_ff=v, qdd_ff=a, dt=dt)
-            else:
-                s, sd, _ = path.progress(k * dt)
-                cmd = ctrl.step(q, target=path.pose_at(s), twist=path.twist_at(s, sd=sd), dt=dt)
+            s, cmd = _command(ctrl, path, plan, k, q, dt)
         else:
-            s = float(plan.s[-1]) if use_gov else path.length
+            s = float(plan.s[-1]) if plan is not None else path.length
             cmd = ctrl.step(q, target=T_end, dt=dt)
         Q.append(q)
         QD.append(cmd.qd)
@@ -142,8 +160,8 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
             if k >= n_sched + n_settle:
                 break
             if cmd.position_error <= pos_tol * 0.1 and cmd.orientation_error <= ori_tol * 0.1 \
-                    and float(np.max(np.abs(cmd.qd))) < 1e-6:
-                break
+                    and float(np.max(np.abs(cmd.qd))) < 1e-4:
+                break  # on the end pose and (practically) at rest
     # final state (after the last command)
     Q.append(q)
     QD.append(QD[-1] if ctrl.filter is None else ctrl.filter.velocity)
@@ -151,51 +169,67 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
     ST.append(ST[-1])
     S.append(S[-1])
     KINDS.append(KINDS[-1])
+    return {"q": np.array(Q), "qd": np.array(QD), "qdd": np.array(QDD), "statuses": tuple(ST),
+            "s": np.array(S), "kinds": tuple(KINDS), "halted": halted_reason}
 
-    Q = np.array(Q)
-    t = np.arange(len(Q)) * dt
+
+def _path_errors(chain, path, Q, S):
+    """Poses, σ_min, and per step the distance from the path / from the reference [m, rad]."""
     poses, J = chain.fk_jacobian(Q)
     sig = np.linalg.svd(J, compute_uv=False)[:, -1]
-    S = np.array(S)
-    perr = np.empty(len(Q))
-    oerr = np.empty(len(Q))
-    terr = np.empty(len(Q))
+    perr, oerr, terr = np.empty(len(Q)), np.empty(len(Q)), np.empty(len(Q))
     s_near = None
     window = 0.25 * path.length + 1e-3
     for i in range(len(Q)):
         dpos, dang, s_near = path.distance(poses[i], s_hint=S[i] if s_near is None else s_near, window=window)
         perr[i], oerr[i] = dpos, dang
         terr[i] = float(np.linalg.norm(poses[i][:3, 3] - path.position_at(S[i])))
+    return poses, sig, perr, oerr, terr
+
+
+def _evaluate(chain, path, rec, plan, gov, T_end, info, *, dt, settle, tolerance, path_tolerance):
+    """The `Execution` of a run, with "completed" and its message."""
+    Q = rec["q"]
+    t = np.arange(len(Q)) * dt
+    poses, sig, perr, oerr, terr = _path_errors(chain, path, Q, rec["s"])
     eend = pose_error(T_end, poses[-1])
     end_p, end_o = float(np.linalg.norm(eend[:3])), float(np.linalg.norm(eend[3:]))
-    reached = end_p <= pos_tol and end_o <= ori_tol
+    reached = end_p <= tolerance[0] and end_o <= tolerance[1]
     # the duration ends where the end pose is reached for good (not after the settle wait)
-    end_ok = (np.linalg.norm(poses[:, :3, 3] - T_end[:3, 3], axis=1) <= pos_tol) \
-        & (rotation_angle(np.swapaxes(poses[:, :3, :3], -1, -2) @ T_end[:3, :3]) <= ori_tol)
+    end_ok = (np.linalg.norm(poses[:, :3, 3] - T_end[:3, 3], axis=1) <= tolerance[0]) \
+        & (rotation_angle(np.swapaxes(poses[:, :3, :3], -1, -2) @ T_end[:3, :3]) <= tolerance[1])
     late = np.flatnonzero(~end_ok)
     arrival = min(int(late[-1]) + 1, len(t) - 1) if len(late) else 0
     duration = float(t[arrival]) if reached else float(t[-1])
     nominal = path.duration
-    if halted_reason:
-        completed = False
-        message = f"halted: {halted_reason}"
-    elif use_gov and not plan.complete:
-        completed = False
+    completed, message = False, ""
+    if rec["halted"]:
+        message = f"halted: {rec['halted']}"
+    elif plan is not None and not plan.complete:
+        message = f"governor: {plan.message}"
+    elif plan is not None and not plan.within_limits:
         message = f"governor: {plan.message}"
     elif not reached:
-        completed = False
         message = (f"end pose not reached: {end_p * 1e3:.3g} mm, {math.degrees(end_o):.3g}° from it "
                    f"after {settle:g} s of settling")
+    elif plan is not None and (perr.max() > path_tolerance[0] or oerr.max() > path_tolerance[1]):
+        k = int(np.argmax(perr / path_tolerance[0] + oerr / path_tolerance[1]))
+        message = (f"left the path: {perr.max() * 1e3:.3g} mm / {math.degrees(oerr.max()):.3g}° from it "
+                   f"(largest near s = {rec['s'][k]:.4g} m; path tolerance "
+                   f"{path_tolerance[0] * 1e3:.3g} mm / "
+                   f"{math.degrees(path_tolerance[1]):.3g}°)")
     else:
         completed = True
         message = (f"completed in {duration:.3f} s, nominal {nominal:.3f} s "
                    f"({duration - nominal:+.3f} s, ×{duration / nominal if nominal > 0 else 1.0:.2f})")
     info.update({"end_position_error": end_p, "end_orientation_error": end_o,
                  "governor": repr(gov) if gov is not None else None})
-    return Execution(t=t, q=Q, qd=np.array(QD), qdd=np.array(QDD), poses=poses, position_error=perr,
-                     orientation_error=oerr, tracking_error=terr, statuses=tuple(ST), kinds=tuple(KINDS),
-                     sigma_min=sig, s=S, nominal_duration=nominal, duration=duration, completed=completed,
-                     message=message, source="follow" + (" (governor)" if use_gov else " (time law)"),
+    return Execution(t=t, q=Q, qd=rec["qd"], qdd=rec["qdd"], poses=poses, position_error=perr,
+                     orientation_error=oerr, tracking_error=terr, statuses=rec["statuses"],
+                     kinds=rec["kinds"],
+                     sigma_min=sig, s=rec["s"], nominal_duration=nominal, duration=duration,
+                     completed=completed, message=message,
+                     source="follow" + (" (governor)" if plan is not None else " (time law)"),
                      chain_name=chain.name, joint_names=tuple(chain.joint_names),
                      vmax=np.array(chain.vmax), amax=np.array(chain.amax), info=info)
 

@@ -1,92 +1,87 @@
-"""Path-speed governor: slow the progress along a path so the joints stay within limits.
+"""Path-speed governor: time the progress along a path so the joints stay within limits.
 
-A Cartesian path fixes *where* the tool goes; its time law fixes *when*. Near a
-singular configuration the joint velocities a fixed time law demands grow without
-bound (``q̇ = J⁻¹ξ``), and every inverse-velocity solver then gives something up:
-the exact inverse exceeds the limits, a clipping QP or a damped inverse leaves the
-path. The governor gives up *time* instead: it keeps the tool on the path and
-re-times the progress s(t) so that
+A Cartesian path fixes *where* the tool goes; its time law fixes *when*. Near a singular
+configuration the joint velocities a fixed time law demands grow without bound
+(``q̇ = J⁻¹ξ``), and every inverse-velocity solver then gives something up: the exact
+inverse exceeds the limits, a clipping QP or a damped inverse leaves the path. The governor
+gives up *time* instead: it keeps the tool on the path and re-times the progress s(t) so that
 
-    q̇ = q'(s) ṡ,    q̈ = q'(s) s̈ + q''(s) ṡ²
+    q̇ = q′ṡ,    q̈ = q′s̈ + q″ṡ²,    q⃛ = q′s⃛ + 3q″ṡs̈ + q‴ṡ³
 
-stay within ``velocity_margin·vmax`` and ``acceleration_margin·amax`` on every joint
-(``q' = dq/ds``, ``q'' = d²q/ds²`` along the joint path), and within the path's own
-speed and acceleration limits.
+stay within ``velocity_margin·vmax``, ``acceleration_margin·amax`` (and, for a jerk-limited
+executor, jmax) on every joint, and within the path's own speed and acceleration limits.
 
-How (all done once, before the motion — `plan`):
+How (all done once, before the motion — `Governor.plan`):
 
-1. **Joint path.** Integrate ``dq/ds = J⁺(q) dP/ds`` from q0 with steps small enough
-   that no joint moves more than ``max_joint_step`` [rad], correcting every step by
-   Newton iterations ``q ← q + J⁺ e`` onto the exact pose P(s) (e = pose error). For a
-   redundant arm the null-space term ``(I − J⁺J) z`` with z = −k W (q − q_mid) keeps the
-   joints away from their limits. q'(s) comes from the same formula, q''(s) from
-   differences of q'. The integration stops at a configuration where σ_min(J) falls
-   below ``sigma_tolerance`` (a workspace boundary): the plan then ends there and
-   says so.
-2. **Admissible speed** (TOPP by numerical integration on x = ṡ²). The velocity
-   limits give ``x ≤ (v_i/|q'_i|)²``; the acceleration limits
-   ``−a_i ≤ q'_i u + q''_i x ≤ a_i`` (u = s̈) bound u for each x and, where they cannot
-   all hold, bound x itself. A forward pass (accelerate as much as allowed) and a
-   backward pass (decelerate in time for every dip) give the fastest feasible x(s).
-3. **Jerk-limited progress.** A 1-D Ruckig trajectory generator advances s every
-   control period with |s̈| ≤ path acceleration and |s⃛| ≤ path jerk: its velocity
-   interface follows, as target speed, the smallest admissible ṡ over a look-ahead
-   window ahead of s, and near the end its position interface brings s to the end at
-   rest. So the progress variable is jerk-limited, and it slows *before* the singular
-   neighbourhood.
-4. **Check.** The discrete joint motion the executor will command (secant velocities
-   between planned configurations and their differences) is checked against the
-   limits; if any exceeds ``check_fraction`` of a limit, the margins shrink by 15 %
-   (and, for an acceleration excess, the progress acceleration by 40 %: q̈ contains
-   q's̈, which only a smaller s̈ reduces where |q'| is large) and steps 2–3 are repeated
-   (at most ``max_iterations`` times). A joint path that ends at a singularity is
-   trimmed back to where σ_min ≥ 3·``sigma_tolerance`` (closer, q' ~ 1/σ makes the
-   timing meaningless). With
-   ``check_jerk`` (used when a jerk-limited smoother executes the plan) the planned
-   joint jerk is checked against jmax as well, halving the progress jerk until it fits.
-   A joint path that crosses a joint *position* limit is reported in the plan's message
-   (re-timing cannot avoid it).
+1. **Joint path** (`joint_path`): q(s) with q′, q″, q‴,
+   following exact singularities wherever the path tangent lies in the range of J and q′
+   stays bounded (the smooth branch; the crossings are listed with the branch taken), and
+   stopping with a specific message only where the path leaves the reachable set or needs
+   unbounded joint speed. A path that ends at a singular pose is followed to it.
+2. **Time-optimal admissible speed** (`reachability_profile`):
+   reachability analysis on x = ṡ² as in TOPP-RA — backward controllable sets, greedy
+   forward pass — starting and ending at rest.
+3. **Progress.** Without a smoother the progress s(t) *is* the time-optimal profile, sampled
+   every control period. With a jerk-limited smoother (``check_jerk``) the profile is first
+   computed with the extra speed bound ``|q‴_i|ṡ³ ≤ jmax_i`` and the progress is its moving
+   average over the shortest window T that bounds the ``q′s⃛`` term of the joint jerk
+   (`_smooth_progress`); the ``3q″ṡs̈`` term and what is left are caught by step 4.
+4. **Check.** The discrete joint motion the executor will command (secant velocities between
+   planned configurations and their differences) is checked against ``check_fraction`` of
+   every limit. Where it exceeds one, the margins are lowered *locally* — on the grid points
+   within a short window of the violation, by 10 % per round — and steps 2–3 repeat (at most
+   ``max_iterations`` times). A plan that still exceeds a limit says so in its message with
+   the excess and `GovernorPlan.within_limits` is False; ``follow`` then reports the run
+   as not completed. A joint path that crosses a joint *position* limit is reported too.
 
-The executor (`ratectl.follow`) then feeds the planned joint velocity forward
-and closes the loop on the pose error through the controller, so the tool stays on
-the path to within the feedback's accuracy.
+The executor (`ratectl.follow`) feeds the planned joint velocity forward and closes
+the loop on the pose error through the controller, so the tool stays on the path to within
+the feedback's accuracy.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
 from .joint_path import JointPath, joint_path
-from .topp import _topp
+from .topp import SpeedProfile, reachability_profile
 
 __all__ = ['Governor', 'GovernorPlan', 'plan']
 
 
 # ---------------------------------------------------------------------- plan
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class GovernorPlan:
-    """A governed, jerk-limited timing of a path for a control period ``dt``.
+    """A governed timing of a path for a control period ``dt``; immutable (read-only arrays).
 
-    Step k (time ``t[k] = k·dt``) has progress ``s[k]``, ``sd[k]``, ``sdd[k]`` and the
-    planned joint positions ``q[k]`` (on the joint path, fk(q[k]) = P(s[k])).
-    ``qd_ff[k] = (q[k+1] − q[k])/dt`` is the joint velocity that carries the arm from
-    step k to step k+1.
+    Step k (time ``t[k] = k·dt``) has progress ``s[k]``, ``sd[k]``, ``sdd[k]`` and the planned
+    joint positions ``q[k]`` (on the joint path, fk(q[k]) = P(s[k])).
+    ``qd_ff[k] = (q[k+1] − q[k])/dt`` is the joint velocity that carries the arm from step k
+    to step k+1.
 
     Attributes:
         dt: control period [s]; t, s, sd, sdd: (K,) arrays; q: (K, n); qd_ff: (K, n)
             (the last row is zero).
-        joint_path: the `JointPath` of step 1.
-        x_limit: (N,) admissible ṡ² on the joint-path grid (after margins).
+        joint_path: the `JointPath` of step 1 (with its singularity crossings).
+        x_limit: (N,) time-optimal admissible ṡ² on the joint-path grid (after margins).
         nominal_duration: duration of the path's own time law [s].
         duration: duration of the governed motion [s].
-        velocity_ratio, acceleration_ratio: the largest |q̇_i|/vmax_i and |q̈_i|/amax_i of
-            the planned discrete motion.
-        margins: (velocity, acceleration) fractions finally used.
-        complete: the plan reaches the end of the path; message: why not, if not.
+        optimal_duration: duration of the reachability profile itself at the margins used [s].
+        velocity_ratio, acceleration_ratio, jerk_ratio: the largest |q̇_i|/vmax_i, |q̈_i|/amax_i,
+            |q⃛_i|/jmax_i of the planned discrete motion (jerk_ratio NaN unless checked).
+        margins: the smallest (velocity, acceleration) fractions used anywhere on the path.
+        iterations: planning rounds (step 4).
+        complete: the plan reaches the end of the path and its joint path stays inside the
+            position limits; within_limits: the planned motion meets every checked limit.
+        message: what stopped it or what it exceeds ("" when neither).
+        info: read-only mapping with ``iterations``, ``grid_points``, ``jerk_ratio``.
     """
 
     dt: float
@@ -100,12 +95,23 @@ class GovernorPlan:
     x_limit: np.ndarray
     nominal_duration: float
     duration: float
+    optimal_duration: float
     velocity_ratio: float
     acceleration_ratio: float
+    jerk_ratio: float
     margins: tuple[float, float]
+    iterations: int
     complete: bool
+    within_limits: bool = True
     message: str = ""
-    info: dict = field(default_factory=dict)
+    info: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+
+    def __post_init__(self) -> None:
+        for name in ("t", "s", "sd", "sdd", "q", "qd_ff", "x_limit"):
+            a = np.array(getattr(self, name), dtype=float)
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+        object.__setattr__(self, "info", MappingProxyType(dict(self.info)))
 
     @property
     def slowdown(self) -> float:
@@ -116,29 +122,37 @@ class GovernorPlan:
         return len(self.t)
 
 
+@dataclass(frozen=True)
+class _Check:
+    """Ratios of the planned discrete motion and the path parameters where limits are exceeded."""
+
+    rv: float
+    ra: float
+    rj: float
+    bad_s: np.ndarray
+
+
 class Governor:
     """Path-speed governor options (see the module docstring for the method).
 
     Args:
         velocity_margin: plan joint speeds to this fraction of vmax (room for feedback).
         acceleration_margin: plan joint accelerations to this fraction of amax.
-        jerk: jerk limit of the progress s⃛ [m/s³] (default: the path's jerk, else
-            20 × its acceleration).
-        lookahead: extra look-ahead time for the velocity cap [s] (default: 2 a/j, the
-            time the jerk-limited progress needs to change its acceleration).
-        max_joint_step: joint-path integration step [rad]; sigma_tolerance: see
-            `joint_path`; nullspace_gain: joint centring for redundant arms [1/m].
+        jerk: jerk limit of the progress s⃛ [m/s³] for a jerk-limited executor (default: the
+            path's jerk, else 20 × its acceleration).
+        max_joint_step: joint-path integration step [rad]; nullspace_gain: joint centring for
+            redundant arms [1/m]; sigma_tolerance: ignored (feasibility comes from the
+            range-space residual, see `joint_path`).
         check_fraction: accept the plan when the planned discrete motion stays below this
-            fraction of every limit; otherwise shrink the margins (``max_iterations``).
-        check_jerk: also require the planned joint jerk to stay below ``check_fraction·jmax``
-            (shrinking the acceleration margin until it does) — used when a jerk-limited
-            smoother executes the plan, so that it can track it without lag.
+            fraction of every limit; otherwise lower the margins locally (``max_iterations``).
+        check_jerk: plan for a jerk-limited smoother: jerk-limited progress and the planned
+            joint jerk checked against ``check_fraction·jmax`` as well.
     """
 
-    def __init__(self, *, velocity_margin: float = 0.9, acceleration_margin: float = 0.8,
-                 jerk: float | None = None, lookahead: float | None = None, max_joint_step: float = 0.004,
-                 sigma_tolerance: float = 1e-3, nullspace_gain: float = 1.0, check_fraction: float = 0.95,
-                 check_jerk: bool = False, max_iterations: int = 8) -> None:
+    def __init__(self, *, velocity_margin: float = 0.98, acceleration_margin: float = 0.96,
+                 jerk: float | None = None, max_joint_step: float = 0.004,
+                 sigma_tolerance: float | None = None, nullspace_gain: float = 1.0,
+                 check_fraction: float = 0.99, check_jerk: bool = False, max_iterations: int = 12) -> None:
         for name, v in (("velocity_margin", velocity_margin), ("acceleration_margin", acceleration_margin),
                         ("check_fraction", check_fraction)):
             if not (0.0 < float(v) <= 1.0):
@@ -146,9 +160,8 @@ class Governor:
         self.velocity_margin = float(velocity_margin)
         self.acceleration_margin = float(acceleration_margin)
         self.jerk = None if jerk is None else float(jerk)
-        self.lookahead = lookahead
         self.max_joint_step = float(max_joint_step)
-        self.sigma_tolerance = float(sigma_tolerance)
+        self.sigma_tolerance = sigma_tolerance
         self.nullspace_gain = float(nullspace_gain)
         self.check_fraction = float(check_fraction)
         self.check_jerk = bool(check_jerk)
@@ -156,7 +169,7 @@ class Governor:
 
     def __repr__(self) -> str:
         return (f"Governor(velocity_margin={self.velocity_margin}, "
-                f"acceleration_margin={self.acceleration_margin})")
+                f"acceleration_margin={self.acceleration_margin}, check_jerk={self.check_jerk})")
 
     def plan(self, chain, path, q0, *, dt: float) -> GovernorPlan:
         """Plan the governed motion of ``chain`` along ``path`` from ``q0`` with period ``dt`` [s]."""
@@ -169,147 +182,145 @@ class Governor:
                              "nothing to plan; to hold a pose, step the controller with target=",
                              argument="path", value=path)
         jp = joint_path(chain, path, q0, max_joint_step=self.max_joint_step,
-                        sigma_tolerance=self.sigma_tolerance, nullspace_gain=self.nullspace_gain)
-        if len(jp.s) < 2:
+                        nullspace_gain=self.nullspace_gain)
+        if len(jp.s) < 2 or (not jp.complete and jp.s[-1] < 1e-6):
             raise InputError(f"the governor cannot plan this path from q0: {jp.message or 'no joint path'}; "
-                             "start from a regular configuration (or follow with governor=False, "
+                             "start from a configuration the path can leave (or follow with governor=False, "
                              "which damps through it)", argument="q0", value=q0)
-        if not jp.complete:
-            jp = _trim_singular_end(jp, 3.0 * self.sigma_tolerance)
+        jp = _trim_singular_end(jp)
         # absent limits (inf) become very large finite ones, so the TOPP rows stay finite
-        vmax = np.where(np.isfinite(chain.vmax), chain.vmax, 1e6)
-        amax = np.where(np.isfinite(chain.amax), chain.amax, 1e8)
-        jmax = np.where(np.isfinite(chain.jmax), chain.jmax, 1e10)
-        jerk = self.jerk or path.jerk or 20.0 * path.acceleration
-        vm, am = self.velocity_margin, self.acceleration_margin
-        acc = path.acceleration
-        best = None
-        for it in range(self.max_iterations):
-            x, mvc = _topp(jp, vm * vmax, am * amax, path.speed, acc)
-            s, sd, sdd = _track(jp, x, dt=dt, acc=acc, jerk=jerk, lookahead=self.lookahead)
+        lim = tuple(np.where(np.isfinite(v), v, big) for v, big in
+                    ((chain.vmax, 1e6), (chain.amax, 1e8), (chain.jmax, 1e10)))
+        N = len(jp.s)
+        mv = np.full(N, self.velocity_margin)
+        ma = np.full(N, self.acceleration_margin)
+        for it in range(1, self.max_iterations + 1):
+            prof, (s, sd, sdd) = self._progress(jp, path, lim, mv, ma, dt)
             q = jp.interpolate(s)
-            qd = np.zeros_like(q)
-            qd[:-1] = np.diff(q, axis=0) / dt
-            qdd = np.diff(qd, axis=0, prepend=np.zeros((1, q.shape[1]))) / dt
-            with np.errstate(invalid="ignore"):
-                rv = float(np.max(np.abs(qd) / vmax))
-                ra = float(np.max(np.abs(qdd) / amax))
-                rj = float(np.max(np.abs(np.diff(qdd, axis=0)) / dt / jmax)) if self.check_jerk else 0.0
-            best = (x, s, sd, sdd, q, qd, rv, ra, (vm, am), it + 1, jerk, rj, acc)
-            if rv <= self.check_fraction and ra <= self.check_fraction and rj <= self.check_fraction:
+            chk = _check(q, s, dt, lim, self.check_jerk)
+            f = self.check_fraction
+            if max(chk.rv, chk.ra, chk.rj) <= f or it == self.max_iterations:
                 break
-            if rv > self.check_fraction:
-                vm *= 0.85
-            if ra > self.check_fraction:
-                am *= 0.85
-                # q̈ = q' s̈ + q'' ṡ²: where |q'| is large (near a singularity) the progress
-                # acceleration itself must come down, not only the speed
-                acc *= 0.6
-            if rj > self.check_fraction:
-                jerk *= 0.5
-        x, s, sd, sdd, q, qd, rv, ra, margins, iters, jerk, rj, acc = best
-        t = np.arange(len(s)) * dt
-        complete = jp.complete
-        message = jp.message
-        outside = (jp.q < chain.lower) | (jp.q > chain.upper)
-        if np.any(outside):
-            k, j = np.argwhere(outside)[0]
-            complete = False
-            message = (message + "; " if message else "") + (
-                f"the joint path crosses the position limit of joint {j} ({chain.joint_names[j]}) at "
-                f"s = {jp.s[k]:.4g} m "
-                "(re-timing cannot avoid it; the controller will hold the limit)")
-        if rv > 1.0 or ra > 1.0:
-            message = (message + "; " if message else "") + (
-                f"planned motion exceeds the limits (|q̇|/vmax = {rv:.3f}, |q̈|/amax = {ra:.3f})")
-        return GovernorPlan(dt=dt, t=t, s=s, sd=sd, sdd=sdd, q=q, qd_ff=qd, joint_path=jp, x_limit=x,
-                            nominal_duration=path.duration, duration=float(t[-1]), velocity_ratio=rv,
-                            acceleration_ratio=ra, margins=margins, complete=complete, message=message,
-                            info={"iterations": iters, "jerk": jerk, "acceleration": acc,
-                                  "grid_points": len(jp.s),
-                                  "jerk_ratio": rj if self.check_jerk else None})
+            _lower_locally(jp.s, chk.bad_s, mv, ma, speed=chk.rv > f, accel=chk.ra > f or chk.rj > f)
+        return _assemble(chain, path, jp, dt, prof, s, sd, sdd, q, chk, (float(mv.min()), float(ma.min())),
+                         it, self.check_fraction)
+
+    def _progress(self, jp: JointPath, path, lim, mv, ma, dt):
+        """The speed profile at the current margins and the progress (s, ṡ, s̈) sampled every dt."""
+        vmax, amax, jmax = lim
+        vl, al = mv[:, None] * vmax, ma[:, None] * amax
+        if self.check_jerk:
+            # the q‴ṡ³ term: ṡ ≤ (jmax / |q‴|)^(1/3), as a velocity-type bound per joint
+            with np.errstate(divide="ignore"):
+                sd_j = np.min(np.cbrt(ma[:, None] * jmax / np.maximum(np.abs(jp.dddq), 1e-300)), axis=1)
+            vl = np.minimum(vl, sd_j[:, None] * np.abs(jp.dq))
+        prof = reachability_profile(jp, vl, al, path.speed, path.acceleration)
+        if not self.check_jerk:
+            return prof, prof.sample(dt)
+        jerk = self.jerk or path.jerk or 20.0 * path.acceleration
+        window = max(2.0 * float(np.max(self.acceleration_margin * amax / jmax)),
+                     2.0 * path.acceleration / jerk) / self.check_fraction
+        return prof, _smooth_progress(prof, dt=dt, window=window)
 
 
-def _trim_singular_end(jp: JointPath, sigma: float) -> JointPath:
-    """Drop the end of a joint path that stopped at a singularity where σ_min < ``sigma``:
-    there q' ~ 1/σ grows without bound, the interpolated joint motion is dominated by
-    its own rounding, and a plan cannot approach it usefully anyway (it ends there)."""
-    keep = np.flatnonzero(jp.sigma_min >= sigma)
-    if keep.size < 2 or keep[-1] == len(jp.s) - 1:
+def _trim_singular_end(jp: JointPath, *, reach: float = 5e-5, qprime: float = 300.0) -> JointPath:
+    """End a joint path that runs into a singular pose (|q′| → ∞ at s = L) up to ``reach`` [m]
+    before it, where |q′| ≤ ``qprime`` [rad/m]: the last micrometres, where q ~ √(L − s), are
+    not resolved by the grid (their interpolated q̈ is noise) and are left to the feedback,
+    which settles on the end pose. A joint path that stopped (the path leaves the reachable
+    set) is cut back the same way, without the ``reach`` bound: the plan stops short of it."""
+    L = float(jp.s[-1])
+    big = np.max(np.abs(jp.dq), axis=1) > qprime
+    if not big[-1]:
         return jp
-    k = int(keep[-1]) + 1
-    return JointPath(jp.s[:k], jp.q[:k], jp.dq[:k], jp.ddq[:k], jp.sigma_min[:k], jp.complete,
-                     jp.message)
+    keep = np.flatnonzero(~big | ((L - jp.s > reach) & jp.complete))
+    k = int(keep[-1]) + 1 if keep.size else len(jp.s)
+    if k >= len(jp.s) - 1 or k < 2:
+        return jp
+    if not jp.complete:  # stop where the joint speed is still resolved, short of the stop
+        keep = np.flatnonzero(~(np.max(np.abs(jp.dq), axis=1) > 0.2 * qprime))
+        k = max(int(keep[-1]) + 1 if keep.size else 2, 2)
+        return jp.trimmed(k, complete=False, message=jp.message)
+    note = (f"the path ends at a singular pose (σ_min = {jp.sigma_min[-1]:.2e}); the plan stops "
+            f"{(L - jp.s[k - 1]) * 1e6:.3g} µm before it, where |q′| ≤ {qprime:g} rad/m, and the "
+            "feedback settles on the end pose")
+    return jp.trimmed(k, complete=True, message=note, singular_end=True)
 
 
-def _track(jp: JointPath, x, *, dt, acc, jerk, lookahead):
-    """Jerk-limited progress with 1-D Ruckig, |s̈| ≤ acc, |s⃛| ≤ jerk. Away from the end the
-    velocity interface follows a target speed — the smallest admissible ṡ over a look-ahead
-    window ahead of s, so the progress slows before every dip of the admissible speed;
-    near the end the position interface brings s to the end of the joint path at rest
-    (its velocity limit still capped the same way)."""
-    import ruckig
+def _check(q, s, dt, lim, with_jerk: bool) -> _Check:
+    """Limit ratios of the discrete motion q[k] (secant velocities, their differences)."""
+    vmax, amax, jmax = lim
+    qd = np.zeros_like(q)
+    qd[:-1] = np.diff(q, axis=0) / dt
+    qdd = np.diff(qd, axis=0, prepend=np.zeros((1, q.shape[1]))) / dt
+    rv_k = np.max(np.abs(qd) / vmax, axis=1)
+    ra_k = np.max(np.abs(qdd) / amax, axis=1)
+    rj_k = np.zeros(len(s))
+    if with_jerk:
+        rj_k[1:] = np.max(np.abs(np.diff(qdd, axis=0)) / dt / jmax, axis=1)
+    worst = np.maximum(np.maximum(rv_k, ra_k), rj_k)
+    bad = np.flatnonzero(worst > 0.99)
+    return _Check(rv=float(rv_k.max()), ra=float(ra_k.max()), rj=float(rj_k.max()) if with_jerk else math.nan,
+                  bad_s=s[np.clip(np.concatenate([bad - 1, bad, bad + 1]), 0, len(s) - 1)])
 
-    S = jp.s
-    end = float(S[-1])
-    sdmax = np.sqrt(np.maximum(x, 0.0))
-    T_look = lookahead if lookahead is not None else 2.0 * acc / jerk
-    otg = ruckig.Ruckig(1, dt)
-    inp = ruckig.InputParameter(1)
-    out = ruckig.OutputParameter(1)
-    inp.control_interface = ruckig.ControlInterface.Velocity
-    inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [0.0], [0.0]
-    inp.target_position, inp.target_velocity, inp.target_acceleration = [end], [0.0], [0.0]
-    inp.max_acceleration, inp.max_jerk = [acc], [jerk]
-    vfloor = 1e-7
-    s_list, sd_list, sdd_list = [0.0], [0.0], [0.0]
-    s, sd, sdd = 0.0, 0.0, 0.0
-    final = False
-    max_time = 3600.0  # [s] a governed motion slower than this is a stuck profile, not a plan
-    for _ in range(int(max_time / dt)):
-        window = sd * (T_look + dt) + 0.5 * max(sdd, 0.0) * T_look**2 + 1e-9
-        i0 = max(int(np.searchsorted(S, s, side="right")) - 1, 0)
-        i1 = int(np.searchsorted(S, s + window, side="right"))
-        # min of the (piecewise-linear) admissible speed over [s, s + window]
-        cap = min(float(np.interp(s, S, sdmax)), float(np.interp(min(s + window, end), S, sdmax)))
-        if i1 > i0 + 1:
-            cap = min(cap, float(np.min(sdmax[i0 + 1:i1])))
-        cap = max(cap, vfloor)
-        if not final:
-            brake = sd * sd / (2.0 * acc) + sd * (acc / jerk + 2.0 * dt) + 0.5 * abs(sdd) ** 3 / (acc * jerk)
-            if end - s <= 1.5 * brake + 1e-9:
-                final = True
-                inp.control_interface = ruckig.ControlInterface.Position
-                inp.target_velocity = [0.0]
-        if final:
-            inp.max_velocity = [cap]
-        else:
-            inp.target_velocity = [cap]
-        res = otg.update(inp, out)
-        if res not in (ruckig.Result.Working, ruckig.Result.Finished):
-            raise InputError(f"the progress generator failed (Ruckig {res}); check the path limits",
-                             argument="path", value=None)
-        out.pass_to_input(inp)
-        s = min(float(out.new_position[0]), end)
-        sd = float(out.new_velocity[0])
-        sdd = float(out.new_acceleration[0])
-        s_list.append(s)
-        sd_list.append(sd)
-        sdd_list.append(sdd)
-        if final and (res == ruckig.Result.Finished or (end - s < 1e-9 and abs(sd) < 1e-6)):
-            break  # at the end and at rest (1 nm, 1 µm/s)
-    else:
-        raise InputError(f"the governed progress did not reach the end of the path within {max_time:.0f} s "
-                         f"(at s = {s:.4g} of {end:.4g} m, ṡ = {sd:.3g} m/s): the admissible speed there "
-                         "is too small to plan; shorten the path before the singularity or raise the limits",
-                         argument="path", value=None)
-    s_arr = np.array(s_list)
-    s_arr[-1] = end
-    sd_arr = np.array(sd_list)
-    sd_arr[-1] = 0.0
-    sdd_arr = np.array(sdd_list)
-    sdd_arr[-1] = 0.0
-    return s_arr, sd_arr, sdd_arr
+
+def _lower_locally(grid, bad_s, mv, ma, *, speed: bool, accel: bool, factor: float = 0.9) -> None:
+    """Lower the margins by ``factor`` on the grid points next to the offending path parameters."""
+    if bad_s.size == 0:
+        return
+    k = np.unique(np.clip(np.searchsorted(grid, bad_s), 0, len(grid) - 1))
+    idx = np.unique(np.clip(np.concatenate([k + d for d in range(-3, 4)]), 0, len(grid) - 1))
+    if speed:
+        mv[idx] *= factor
+    if accel:
+        ma[idx] *= factor
+
+
+def _assemble(chain, path, jp, dt, prof: SpeedProfile, s, sd, sdd, q, chk: _Check, margins, iterations,
+              fraction) -> GovernorPlan:
+    """The `GovernorPlan` with its messages."""
+    qd = np.zeros_like(q)
+    qd[:-1] = np.diff(q, axis=0) / dt
+    t = np.arange(len(s)) * dt
+    complete, notes = jp.complete, [jp.message] if jp.message else []
+    outside = (jp.q < chain.lower) | (jp.q > chain.upper)
+    if np.any(outside):
+        k, j = np.argwhere(outside)[0]
+        complete = False
+        notes.append(f"the joint path crosses the position limit of joint {j} ({chain.joint_names[j]}) at "
+                     f"s = {jp.s[k]:.4g} m (re-timing cannot avoid it; the controller will hold the limit)")
+    within = chk.rv <= 1.0 and chk.ra <= 1.0 and not (chk.rj > 1.0)
+    if not within:
+        jerk = "" if math.isnan(chk.rj) else f", |q⃛|/jmax = {chk.rj:.3f}"
+        notes.append(f"the planned motion exceeds the limits after {iterations} rounds (|q̇|/vmax = "
+                     f"{chk.rv:.3f}, |q̈|/amax = {chk.ra:.3f}{jerk})")
+    info = {"iterations": iterations, "grid_points": len(jp.s),
+            "jerk_ratio": None if math.isnan(chk.rj) else chk.rj, "check_fraction": fraction}
+    return GovernorPlan(dt=dt, t=t, s=s, sd=sd, sdd=sdd, q=q, qd_ff=qd, joint_path=jp, x_limit=prof.x,
+                        nominal_duration=path.duration, duration=float(t[-1]),
+                        optimal_duration=prof.duration, velocity_ratio=chk.rv, acceleration_ratio=chk.ra,
+                        jerk_ratio=chk.rj, margins=margins, iterations=iterations, complete=complete,
+                        within_limits=within, message="; ".join(notes), info=info)
+
+
+def _smooth_progress(prof: SpeedProfile, *, dt: float, window: float):
+    """Jerk-limited progress: the time-optimal s(t) averaged over a moving window of T seconds.
+
+    The profile's s̈ is piecewise constant; the moving average s_T(t) = (1/T)∫_{t−T}^{t} s dτ has a
+    continuous s̈ and s⃛ = (s̈(t) − s̈(t − T))/T. Where the joint accelerations q′s̈ stay within
+    amax, the q′s⃛ term of the joint jerk is then within 2 amax/T, so T = 2 amax/jmax (the
+    default ``window``) bounds it; the motion takes T longer and still starts and ends at rest.
+    The other terms (3q″ṡs̈, q‴ṡ³) are left to the speed profile and the check."""
+    s, _, _ = prof.sample(dt)
+    W = max(int(math.ceil(window / dt)), 2)
+    padded = np.concatenate([np.zeros(W - 1), s, np.full(W - 1, s[-1])])
+    c = np.concatenate([[0.0], np.cumsum(padded)])
+    sf = (c[W:] - c[:-W]) / W
+    sf[0], sf[-1] = 0.0, s[-1]
+    sd = np.gradient(sf, dt)
+    sdd = np.gradient(sd, dt)
+    sd[0] = sd[-1] = sdd[0] = sdd[-1] = 0.0
+    return sf, sd, sdd
 
 
 def plan(chain, path, q0, *, dt: float, **options) -> GovernorPlan:

@@ -119,25 +119,46 @@ def _elbow_line(arm):
     return rc.paths.Line(T_start, T_end, speed=0.2, acceleration=1.0), np.array(res.q)
 
 
-def test_elbow_boundary_is_reported_and_handled(ur5e):
+def test_path_ending_at_the_elbow_boundary_is_reached(ur5e):
+    """A line that ends at full reach (elbow straight, q′ ~ 1/√(L − s) unbounded at the end):
+    the governor reaches the end pose within 0.1 mm on the path, the joint speed coming to
+    rest there; the time law runs into the boundary bounded and reported."""
     line, q0 = _elbow_line(ur5e)
     run = rc.follow(ur5e, line, q0, dt=DT)
-    assert not run.completed
-    assert "elbow" in run.message or "boundary" in run.message
-    assert "singular" in run.message
+    assert run.completed, run.message
+    plan = run.info["plan"]
+    assert plan.joint_path.singular_end and "singular pose" in plan.message
     assert np.all(np.isfinite(run.q)) and np.all(np.isfinite(run.qd))
     assert np.all(np.abs(run.qd) <= ur5e.vmax * (1 + 1e-9))
-    assert np.all(np.abs(run.qdd) <= ur5e.amax * (1 + 1e-9))
-    assert run.max_position_error < 1e-4  # stayed on the line
-    assert np.linalg.norm(run.poses[-1][:3, 3] - line.end[:3, 3]) < 1e-3  # stopped at the boundary
+    assert np.all(np.abs(np.diff(run.qd, axis=0)) / DT <= ur5e.amax * (1 + 1e-9))
+    assert run.max_position_error < 1e-5  # stayed on the line
+    assert np.linalg.norm(run.poses[-1][:3, 3] - line.end[:3, 3]) < 1e-4  # reached the singular end
     assert np.max(np.abs(run.qd[-1])) < 1e-3  # (practically) at rest
     assert min(run.sigma_min) < 0.01
+    # any margin reduction stays local: the plan is within 10 % of its own time-optimal profile
+    assert plan.duration < 1.1 * plan.optimal_duration + 0.01
     # the time law (no governor) runs into the boundary too: bounded, reported, no blow-up
     run2 = rc.follow(ur5e, line, q0, dt=DT, governor=False)
     assert np.all(np.isfinite(run2.q))
     assert np.all(np.abs(run2.qd) <= ur5e.vmax * (1 + 1e-9))
     kinds = {k for k in run2.kinds if k}
     assert kinds & {"elbow", "boundary"}
+
+
+def test_path_leaving_the_reachable_set_stops_with_the_reason(ur5e):
+    """The elbow line continued 2 cm past full reach: the plan stops short of the boundary,
+    on the line and at rest, and says that the path leaves the reachable set."""
+    line, q0 = _elbow_line(ur5e)
+    T_out = line.end.copy()
+    T_out[:3, 3] += 0.2 * (line.end[:3, 3] - line.start[:3, 3])
+    longer = rc.paths.Line(line.start, T_out, speed=0.2, acceleration=1.0)
+    run = rc.follow(ur5e, longer, q0, dt=DT)
+    assert not run.completed
+    assert "leaves the reachable set" in run.message and "elbow" in run.message
+    assert np.all(np.abs(run.qd) <= ur5e.vmax * (1 + 1e-9))
+    assert run.max_position_error < 1e-5
+    assert np.linalg.norm(run.poses[-1][:3, 3] - line.end[:3, 3]) < 2e-3  # stopped at the boundary
+    assert np.max(np.abs(run.qd[-1])) < 1e-3
 
 
 def _within(arm, q):
@@ -285,7 +306,10 @@ def test_governor_bounds_the_progress_acceleration_where_q_prime_is_large():
     assert np.all(np.abs(run.qdd) <= arm.amax * (1 + 1e-9))
 
 
-def test_governor_refuses_a_path_that_starts_singular():
+def test_near_singular_start_is_planned_and_the_boundary_reported():
+    """A start 6e-4 from the elbow singularity (σ_min) is not a reason to refuse: the path
+    can be followed from there until it leaves the reachable set 17 mm later, where the plan
+    stops, on the line, and says why. (The old σ_min < 1e-3 threshold refused the start.)"""
     arm = rc.robots.ur5e()
     q0 = np.array([0.9357736107507408, 1.4736851325763833, 0.04116423580508854,
                    5.840369137727672, -3.435318204135431, 2.375385061580211])
@@ -293,7 +317,40 @@ def test_governor_refuses_a_path_that_starts_singular():
     T1 = T0.copy()
     T1[:3, 3] += [0.03543505953235257, 0.04163865350301778, -0.0276551718321012]
     line = rc.paths.Line(T0, T1, speed=0.4, acceleration=0.5)
-    with pytest.raises(InputError, match="cannot plan this path from q0.*singularity"):
-        rc.follow(arm, line, q0, dt=DT)
+    run = rc.follow(arm, line, q0, dt=DT)
+    assert not run.completed and "leaves the reachable set" in run.message
+    assert 0.015 < run.info["plan"].s[-1] < 0.0173
+    assert run.max_position_error < 1e-5
+    assert np.all(np.abs(run.qd) <= arm.vmax * (1 + 1e-9))
     run = rc.follow(arm, line, q0, dt=DT, governor=False)  # the time law damps through it
     assert np.all(np.abs(run.qd) <= arm.vmax * (1 + 1e-9))
+
+
+def test_governor_refuses_a_path_that_cannot_leave_its_start(ur5e):
+    """At the exact wrist singularity (q5 = 0) a line whose tangent is outside the range of J
+    cannot be started: InputError, saying so."""
+    q = np.array([0.0, -2.0, -1.6, -1.2, 0.0, 0.0])
+    T0 = ur5e.fk(q)
+    T1 = T0.copy()
+    T1[:3, 3] += 0.1 * np.array([math.cos(math.radians(30)), math.sin(math.radians(30)), 0.0])
+    line = rc.paths.Line(T0, T1, speed=0.2, acceleration=1.0)
+    with pytest.raises(InputError, match="cannot plan this path from q0.*reachable set"):
+        rc.follow(ur5e, line, q, dt=DT)
+
+
+def test_start_rotated_half_a_turn_about_the_tool_axis(ur5e, scenario):
+    """Issue #11: a start whose tool orientation differs from the path start by π about the
+    tool z axis; the approach move (rc.ik on the exact pose error) brings it to the start and
+    the run completes on the path."""
+    line, q0 = scenario
+    q_flip = q0.copy()
+    q_flip[5] -= math.pi  # the last joint turns the tool about its z axis (−π keeps the path
+    # inside the joint range: the path itself turns q6 by about +π near the wrist singularity)
+    e = rc.spatial.pose_error(line.start, ur5e.fk(q_flip))
+    assert np.linalg.norm(e[:3]) < 1e-9 and abs(np.linalg.norm(e[3:]) - math.pi) < 1e-9
+    run = rc.follow(ur5e, line, q_flip, dt=DT, settle=0.2)
+    assert "approach" in run.info
+    assert np.allclose(ur5e.fk(run.info["approach"].q[-1]), line.start, atol=1e-9)
+    assert run.completed, run.message
+    assert run.max_position_error < 1e-5
+    assert np.linalg.norm(run.poses[-1][:3, 3] - line.end[:3, 3]) < 1e-4
