@@ -9,8 +9,8 @@ import ratectl as rc
 
 # Property tests are derandomised by default so that a run is reproducible (CI included);
 # HYPOTHESIS_PROFILE=explore draws fresh examples each run to search for new failures.
-settings.register_profile("default", derandomize=True, print_blob=True)
-settings.register_profile("explore", derandomize=False, max_examples=500, print_blob=True)
+settings.register_profile("default", derandomize=True, deadline=None, print_blob=True)
+settings.register_profile("explore", derandomize=False, max_examples=500, deadline=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 
