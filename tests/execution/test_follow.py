@@ -40,7 +40,7 @@ def test_scenario_passes_close_to_the_wrist_singularity(ur5e, scenario):
     assert 0.0095 < q5.min() < 0.0105  # the closest approach is the intended 0.01 rad
     assert 0.4 * line.length < jp.s[np.argmin(q5)] < 0.6 * line.length
     need = np.max(np.abs(jp.dq), axis=0) * line.speed  # exact-inverse joint speeds at 0.2 m/s
-    assert 15.0 < need.max() < 25.0 and need.max() > 5 * ur5e.vmax.max()
+    assert 35.0 < need.max() < 50.0 and need.max() > 10 * ur5e.vmax.max()  # the demo's 42 rad/s
 
 
 def test_governor_completes_within_limits_and_on_the_line(ur5e, governed):
@@ -89,8 +89,8 @@ def test_time_law_with_adaptive_dls_completes_with_bounded_velocity(ur5e, scenar
     assert np.all(np.abs(run.qd) <= ur5e.vmax * (1 + 1e-9))
     assert np.all(np.abs(run.qdd) <= ur5e.amax * (1 + 1e-9))
     assert "damped" in run.statuses and "wrist" in set(run.kinds)
-    # the price of keeping to the schedule: the tool leaves the line (millimetres), reported
-    assert 1e-3 < run.max_position_error < 2e-2
+    # the price of keeping to the schedule: the tool leaves the line (~1 mm here), reported
+    assert 5e-4 < run.max_position_error < 2e-2
     assert run.max_position_error > 100 * governed.max_position_error
     assert len(run.position_error) == run.steps
 
