@@ -98,7 +98,7 @@ def _compile(source):
         raise ImportModelError(f"{label}: elements are nested too deeply", element="mujoco") from None
     try:
         model = mujoco.MjModel.from_xml_string(xml)
-    except ValueError as exc:
+    except Exception as exc:  # ValueError for compile errors; MuJoCo's other types too
         msg = str(exc).strip()
         m = re.search(r"Element name '([^']*)', id (\d+)", msg)
         m2 = re.search(r"Element '([^']*)'", msg)

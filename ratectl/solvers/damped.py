@@ -81,6 +81,10 @@ class DLS(Solver):
             L = self._lam2I[k] = self._lam2 * np.eye(k)
         if m <= n:
             _, y, info = _dposv(G + L, xi)
+            t = sum(y.tolist())
+            if info != 0 or t - t != 0.0:  # a tiny λ on a singular J: y overflows
+                raise np.linalg.LinAlgError(f"JJᵀ + λ²I is not positive definite or too "
+                                            f"ill-conditioned for λ = {self.damping:g} (dposv info {info})")
             qd = _dot(y, J)
         else:
             _, qd, info = _dposv(G + L, _dot(xi, J))

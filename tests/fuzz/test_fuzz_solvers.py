@@ -346,3 +346,47 @@ def test_qp_with_extra_rows_is_feasible_and_matches_daqp(fuzz):
 def _in_box(x, lo, hi, rel=1e-6):
     tol = rel * (1.0 + np.abs(x))
     return bool(np.all(x >= lo - tol) and np.all(x <= hi + tol))
+
+
+def _qp_loop(seed, *, vary_dt: bool, steps: int = 300):
+    """A closed loop of the QP alone: q̇ = q̇_ff + c with a moving feed-forward that drives
+    joints into their limits; returns the worst |Δq̇|/(amax·dt) and the worst excursion past a
+    position limit [rad]."""
+    r = np.random.default_rng(seed)
+    n = int(r.integers(1, 4))
+    lim = Limits(lower=-r.uniform(0.2, 1.0, n), upper=r.uniform(0.2, 1.0, n),
+                 vmax=r.uniform(0.5, 2.0, n), amax=r.uniform(1.0, 10.0, n))
+    J = r.standard_normal((int(r.integers(1, 4)), n))
+    s = QP(damping=float(r.choice([1e-3, 0.05])))
+    q, qd = np.zeros(n), np.zeros(n)
+    dt0 = float(r.choice([0.001, 0.004, 0.01]))
+    amp, freq = r.uniform(0.5, 3.0, n), r.uniform(0.2, 3.0, n)
+    worst_a = worst_q = 0.0
+    t = 0.0
+    for _ in range(steps):
+        dt = float(r.choice([0.001, 0.004, 0.01])) if vary_dt else dt0
+        ff = amp * np.sin(freq * t)
+        res = s.solve(J, r.standard_normal(J.shape[0]) * 0.2, limits=lim, q=q, qd_prev=qd, dt=dt, qd_ff=ff)
+        total = res.qd + ff
+        worst_a = max(worst_a, float(np.max(np.abs(total - qd) / (lim.amax * dt))))
+        qd, q, t = total, q + total * dt, t + dt
+        worst_q = max(worst_q, float(np.max(np.maximum(q - lim.upper, lim.lower - q))))
+    return worst_a, worst_q
+
+
+def test_qp_closed_loop_with_feed_forward_holds_every_limit(fuzz):
+    @fuzz.settings(4)
+    @given(seed=st.integers(0, 2**32 - 1))
+    def prop(seed):
+        fuzz.count("qp", 300)
+        worst_a, worst_q = _qp_loop(seed, vary_dt=False)
+        assert worst_a <= 1.0 + 1e-6 and worst_q <= 1e-9
+
+    prop()
+
+
+@pytest.mark.xfail(strict=False, reason="the discrete braking bound (model.limits.braking_speed_discrete) "
+                   "is consistent only for a constant dt; a shorter next step can leave the box empty")
+def test_qp_closed_loop_with_changing_dt_holds_the_acceleration_limit():
+    worst = max(_qp_loop(seed, vary_dt=True, steps=150)[0] for seed in range(3))
+    assert worst <= 1.0 + 1e-6

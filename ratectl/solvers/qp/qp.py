@@ -250,6 +250,21 @@ class QP(Solver):
                     if qd is not None:
                         status, niter, exact = "exact-active-set", -1, True
                         held = st2.tolist()
+                elif (G is not None and getattr(exc, "iterate", None) is not None
+                      and "max_iter" not in self.settings):  # a budget the user set is kept
+                    # OSQP ran out of iterations (ill-conditioned P): one cold retry with a
+                    # much larger budget (a rare path), accepted only with the KKT
+                    # certificate of the exact solution on its active set
+                    try:
+                        cold = _WarmOSQP(n, G.shape[0], P, -b, G, h, lo_, hi_,
+                                         {**self._osqp_settings, "max_iter": 200_000})
+                        x, sv, _, it2, _ = cold.solve(P, -b, G, h, lo_, hi_)
+                    except Exception:  # OSQP's own exception types
+                        x, sv = None, 0
+                    if sv in (1, 2) and x is not None and np.all(np.isfinite(x)):
+                        qd = polish_general(P, b, lo_, hi_, G, h, np.array(x))
+                        if qd is not None:
+                            status, niter, exact = "solved (retry)", it2, True
                 if qd is None:
                     if not self.fallback:
                         raise
@@ -358,8 +373,10 @@ class QP(Solver):
                                   status="error", problem=self._problem(P, c, G, h, lo, hi)) from exc
             if sv not in (1, 2) or not np.all(np.isfinite(x)):  # 1 solved, 2 solved inaccurate
                 self._warm = None
-                raise SolverError(f"OSQP failed: status {status!r}", status=status,
+                exc = SolverError(f"OSQP failed: status {status!r}", status=status,
                                   problem=self._problem(P, c, G, h, lo, hi))
+                exc.iterate = np.array(x) if np.all(np.isfinite(x)) else None  # for a polish
+                raise exc
             return np.array(x), status, niter, polish == 1
         import qpsolvers
 
