@@ -155,13 +155,40 @@ def _is_identity(T: np.ndarray) -> bool:
     return bool(np.all(np.abs(T - np.eye(4)) < _SNAP))
 
 
+def _nonzeros(T: np.ndarray) -> int:
+    return sum(_snap(x) != 0.0 for x in T[:3].ravel())
+
+
+def _peel_rz(post: np.ndarray) -> tuple[float, np.ndarray]:
+    """Write a revolute joint's ``post`` as ``Rz(φ) · post'`` when that makes ``post'``
+    sparser; returns (φ, post').
+
+    ``Rz(q) · Rz(φ) = Rz(q + φ)``, so the joint offset folds into the angle: a standard
+    DH row's ``Rz(θ) Tz(d) Tx(a) Rx(α)`` becomes ``cos(q + θ)`` and the sparse
+    ``Tz(d) Tx(a) Rx(α)``, ~40 % fewer operations per joint than a dense constant
+    product. φ is chosen to zero the (1, 0) entry of the rotation.
+    """
+    phi = math.atan2(post[1, 0], post[0, 0])
+    if abs(phi) < _SNAP:
+        return 0.0, post
+    c, s = math.cos(phi), math.sin(phi)
+    rz = np.eye(4)
+    rz[:2, :2] = [[c, s], [-s, c]]  # Rz(−φ)
+    peeled = rz @ post
+    if _nonzeros(peeled) < _nonzeros(post):
+        return phi, peeled
+    return 0.0, post
+
+
 def _symbolic_chain(joints, base: np.ndarray, tool: np.ndarray):
     """Run the recursion symbolically.
 
     Returns the emitter, the tool frame, and per joint its axis (3 scalars),
-    a point on it (3 scalars) and its kind.
+    a point on it (3 scalars) and its kind. Joint angle offsets folded into the
+    angle (:func:`_peel_rz`) are in ``em.phases``.
     """
     em = _Emitter()
+    em.phases = [0.0] * len(joints)
     frame = _Frame(base)
     pending = np.eye(4)
     axes = []
@@ -173,13 +200,16 @@ def _symbolic_chain(joints, base: np.ndarray, tool: np.ndarray):
         z = [frame.R[r][2] for r in range(3)]
         o = list(frame.p)
         axes.append((joint.kind, z, o))
+        pending = joint.post
         if joint.kind == "revolute":
-            c = em.new(f"cos(q{i})", prefix="c")
-            s = em.new(f"sin(q{i})", prefix="s")
+            phi, pending = _peel_rz(joint.post)
+            em.phases[i] = phi
+            arg = f"q{i}" if phi == 0.0 else f"q{i} + {phi!r}"
+            c = em.new(f"cos({arg})", prefix="c")
+            s = em.new(f"sin({arg})", prefix="s")
             frame.apply_rz(em, c, s)
         else:
             frame.apply_tz(em, f"q{i}")
-        pending = joint.post
     pending = pending @ tool
     if not _is_identity(pending):
         frame.apply_constant(em, pending)
@@ -243,7 +273,7 @@ def generate_source(joints, base: np.ndarray, tool: np.ndarray, *, what: str,
     lines = _live_lines(em, outputs)
     n = len(joints)
     if batched:
-        return _batched_source(n, lines, outputs)
+        return _batched_source(n, lines, outputs, em.phases)
     args = ", ".join(f"q{i}" for i in range(n))
     body = [f"def kernel({args}):"]
     for target, expr in lines:
@@ -308,7 +338,7 @@ class _Registers:
         self.free.append(name)
 
 
-def _batched_source(n: int, lines, outputs) -> str:
+def _batched_source(n: int, lines, outputs, phases) -> str:
     """Source of the batched kernel ``kernel(qT, O, W)`` and of ``NWORK``, its number of work rows.
 
     * ``qT`` (n, m): joint positions, one row per joint (any strides);
@@ -351,7 +381,7 @@ def _batched_source(n: int, lines, outputs) -> str:
     for idx, (target, expr) in enumerate(lines):
         tree = parsed[idx]
         if tree is None:  # cos(q_i) or sin(q_i): rows of the work array
-            i = int(expr[5:-1])
+            i = int(re.match(r"\w+\(q(\d+)", expr).group(1))
             home[target] = f"{'c' if expr.startswith('cos') else 's'}q{i}"
             _emit_copies(body, target, home[target], False, slots.get(target, []))
             continue
@@ -383,8 +413,13 @@ def _batched_source(n: int, lines, outputs) -> str:
             regs.give(dest)
 
     head = ["def kernel(qT, O, W):"]
-    head.append(f"    cos(qT, out=W[:{n}])")
-    head.append(f"    sin(qT, out=W[{n}:{2 * n}])")
+    if any(phases):  # angle offsets: cos(q + φ) and sin(q + φ), as the scalar kernel
+        head.append(f"    add(qT, PHASES, out=W[:{n}])")
+        head.append(f"    sin(W[:{n}], out=W[{n}:{2 * n}])")
+        head.append(f"    cos(W[:{n}], out=W[:{n}])")
+    else:
+        head.append(f"    cos(qT, out=W[:{n}])")
+        head.append(f"    sin(qT, out=W[{n}:{2 * n}])")
     names = [f"cq{i}" for i in range(n)] + [f"sq{i}" for i in range(n)]
     names += [f"r{j}" for j in range(regs.count)]
     head.append(f"    ({', '.join(names)},) = W")
@@ -394,7 +429,10 @@ def _batched_source(n: int, lines, outputs) -> str:
     for k, v in enumerate(outputs):
         if not isinstance(v, str):
             body.append(f"    o{k}.fill({float(v)!r})")
-    head.insert(0, f"NWORK = {2 * n + regs.count}  # rows of W: cos q, sin q, registers\n\n")
+    pre = f"NWORK = {2 * n + regs.count}  # rows of W: cos q, sin q, registers\n"
+    if any(phases):
+        pre += f"PHASES = array({[[p] for p in phases]!r})  # joint angle offsets [rad]\n"
+    head.insert(0, pre + "\n")
     return "\n".join(head + body) + "\n"
 
 
@@ -454,7 +492,8 @@ def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str =
     src = generate_source(joints, base, tool, what=what, batched=batched)
     if batched:
         namespace = {"cos": np.cos, "sin": np.sin, "add": np.add, "subtract": np.subtract,
-                     "multiply": np.multiply, "negative": np.negative, "copyto": np.copyto}
+                     "multiply": np.multiply, "negative": np.negative, "copyto": np.copyto,
+                     "array": np.array}
     else:
         namespace = {"cos": math.cos, "sin": math.sin}
     filename = f"<ratectl kernel {label} {what}{' batched' if batched else ''} #{next(_SERIAL)}>"
