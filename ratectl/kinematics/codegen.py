@@ -530,7 +530,7 @@ def sincos(qT: np.ndarray, phases, W: np.ndarray, n: int) -> None:
     x, k, d, e = W[2 * n:3 * n], W[3 * n:4 * n], W[4 * n:5 * n], W[5 * n:6 * n]
     idx = W[6 * n:7 * n].view(np.int64)
     if phases is None:
-        np.copyto(x, qT)
+        x = qT  # read only; the scratch row block x is taken again below
     else:
         np.add(qT, phases, out=x)
     if not (-_TRIG_RANGE <= x.min() and x.max() <= _TRIG_RANGE):  # k·A no longer exact: libm
@@ -548,6 +548,7 @@ def sincos(qT: np.ndarray, phases, W: np.ndarray, n: int) -> None:
     np.take(_COS_T, idx, out=C)
     np.take(_SIN_T, idx, out=S)
     np.multiply(d, d, out=k)  # δ²
+    x = W[2 * n:3 * n]
     np.multiply(k, 1.0 / 120.0, out=x)
     np.add(x, -1.0 / 6.0, out=x)
     np.multiply(x, k, out=x)
