@@ -1,13 +1,25 @@
 """Kinematics speed: fk + Jacobian for one configuration, and batched Jacobians.
 
-Run:  python benchmarks/bench_kinematics.py [--quick]
+Run:  python benchmarks/bench_kinematics.py [--quick] [--clock cpu|wall] [--markdown]
 
 Prints, for each built-in arm, the median µs per call of ``fk_jacobian`` (one
 combined call) and of ``fk`` + ``jacobian`` (two calls), and configurations per
 second of batched ``jacobian`` at B = 10^4 and 10^5. When Pinocchio,
 roboticstoolbox-python or MuJoCo are installed, the same work is measured with
-them in the same run (same arm, results cross-checked) and ratios are printed.
-Pin to one core for the "one core" figures: ``taskset -c 0 python ...``.
+them in the same run (same arm, results cross-checked) and ratios are printed:
+
+* the UR5e: ``fk_jacobian`` of one configuration beside Pinocchio's
+  ``computeFrameJacobian`` + ``updateFramePlacement`` (ratio of times), and batched
+  ``fk_jacobian(Q)``, Q of shape (B, 6), beside a Python loop of the same Pinocchio calls
+  (ratio of configurations per second), B = 10^4 and 10^5;
+* cost growth with the number of joints: random standard-DH chains of 3, 6, 7, 12 and
+  24 revolute joints (seeded), the same chain built in Pinocchio from its joint
+  placements, single and batched (B = 10^4), as ratios; ``--markdown`` prints this
+  table for docs/benchmarks.md.
+
+Times are this thread's CPU time by default (``--clock cpu``): on a shared machine it
+leaves out the time other processes hold the core. Pin to one core for the "one core"
+figures: ``taskset -c 0 python ...``.
 """
 
 from __future__ import annotations
@@ -40,6 +52,86 @@ def pinocchio_model(chain):
     T = carry @ chain.tool
     fid = model.addFrame(pin.Frame("tool", parent, 0, pin.SE3(T[:3, :3], T[:3, 3]), pin.FrameType.OP_FRAME))
     return model, model.createData(), fid
+
+
+def random_dh_chain(n: int, seed: int = 0):
+    """A random standard-DH chain of n revolute joints: a, d uniform in ±0.4 m, twists
+    from {0, ±π/2} or uniform, offsets uniform in ±1 rad."""
+    rng = np.random.default_rng(seed + 1000 * n)
+    rows = []
+    for _ in range(n):
+        alpha = rng.choice([0.0, np.pi / 2, -np.pi / 2, rng.uniform(-np.pi, np.pi)])
+        rows.append(rc.DH(a=rng.uniform(-0.4, 0.4), alpha=float(alpha), d=rng.uniform(-0.4, 0.4),
+                          theta=rng.uniform(-1, 1), qlim=(-np.pi, np.pi)))
+    return rc.Chain.from_dh(rows, name=f"random DH {n}")
+
+
+def pinocchio_pair(chain, clock: str, B: int, rng, number: int):
+    """(ratectl µs, Pinocchio µs, ratectl batched /s, Pinocchio loop /s) for fk + J."""
+    import pinocchio as pin
+
+    model, data, fid = pinocchio_model(chain)
+    ref = pin.LOCAL_WORLD_ALIGNED
+
+    def one(qq):
+        J = pin.computeFrameJacobian(model, data, qq, fid, ref)  # runs forward kinematics
+        pin.updateFramePlacement(model, data, fid)
+        return data.oMf[fid].homogeneous, J
+
+    q = chain.random_q(rng=rng)
+    T, J = one(q)
+    T0, J0 = chain.fk_jacobian(q)
+    assert np.allclose(T, T0, atol=1e-10) and np.allclose(J, J0, atol=1e-10), "pinocchio disagrees"
+    qs = chain.random_q(B, rng=rng)
+    Tb, Jb = chain.fk_jacobian(qs)
+    for i in (0, B // 2, B - 1):
+        T, J = one(qs[i])
+        assert np.allclose(T, Tb[i], atol=1e-10) and np.allclose(J, Jb[i], atol=1e-10)
+
+    def loop():
+        for row in qs:
+            pin.computeFrameJacobian(model, data, row, fid, ref)
+            pin.updateFramePlacement(model, data, fid)
+
+    pin_us = median_us(lambda: one(q), number=number, clock=clock)
+    ours_us = median_us(lambda: chain.fk_jacobian(q), number=number, clock=clock)
+    pin_us = 0.5 * (pin_us + median_us(lambda: one(q), number=number, clock=clock))
+    loop_rate = B / median_s(loop, repeat=3, clock=clock)
+    ours_rate = B / median_s(lambda: chain.fk_jacobian(qs), repeat=7, clock=clock)
+    loop_rate = 0.5 * (loop_rate + B / median_s(loop, repeat=3, clock=clock))
+    return ours_us, pin_us, ours_rate, loop_rate
+
+
+def headline(clock: str, quick: bool, rng) -> None:
+    """UR5e: single fk_jacobian and batched fk_jacobian beside Pinocchio, as ratios."""
+    chain = rc.robots.ur5e()
+    print("\nUR5e fk_jacobian beside Pinocchio (computeFrameJacobian + updateFramePlacement):")
+    for B in (10_000,) if quick else (10_000, 100_000):
+        us, pus, rate, prate = pinocchio_pair(chain, clock, B, rng, 500 if quick else 3000)
+        print(f"  B = {B:6d}: batched {rate / 1e6:6.2f} M configs/s, Pinocchio loop "
+              f"{prate / 1e6:5.3f} M/s -> {rate / prate:5.1f}x the loop | one configuration "
+              f"{us:5.2f} µs vs {pus:5.2f} µs -> {us / pus:4.2f}x Pinocchio's time")
+
+
+def growth(clock: str, quick: bool, markdown: bool, rng) -> None:
+    """Cost growth with the number of joints, ratectl beside Pinocchio (ratios)."""
+    B = 10_000
+    rows = []
+    print(f"\ncost growth with the number of joints (random standard-DH chains, batched B = {B}):")
+    print(f"{'joints':>6s} {'single: ratectl/pin time':>25s} {'batched: ratectl/pin-loop speed':>32s}"
+          f" {'ratectl µs':>11s} {'pin µs':>7s} {'ratectl M/s':>12s} {'pin loop M/s':>13s}")
+    for n in (3, 6, 7, 12, 24):
+        chain = random_dh_chain(n)
+        us, pus, rate, prate = pinocchio_pair(chain, clock, B, rng, 300 if quick else 2000)
+        rows.append((n, us / pus, rate / prate, us, pus, rate, prate))
+        print(f"{n:6d} {us / pus:25.2f} {rate / prate:32.1f} {us:11.2f} {pus:7.2f} "
+              f"{rate / 1e6:12.2f} {prate / 1e6:13.3f}")
+    if markdown:
+        print("\n| joints | one configuration: ratectl / Pinocchio time | batched (B = 10⁴): "
+              "ratectl / Pinocchio-loop speed |")
+        print("|---|---|---|")
+        for n, r1, r2, *_ in rows:
+            print(f"| {n} | {r1:.2f}× | {r2:.1f}× |")
 
 
 def bench_pinocchio(chain, q, qs):
@@ -122,9 +214,21 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repetitions, B = 10^4 only")
     ap.add_argument("--arms", default=",".join(k for k in rc.robots.BUILTIN if k != "planar2r"))
+    ap.add_argument("--clock", choices=("cpu", "wall"), default="cpu",
+                    help="cpu: this thread's CPU time (default, steadier on a shared machine)")
+    ap.add_argument("--markdown", action="store_true", help="print the growth table as markdown")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(0)
-    print(f"ratectl {rc.__version__}, numpy {np.__version__}")
+    print(f"ratectl {rc.__version__}, numpy {np.__version__}, clock {args.clock}")
+    try:
+        import pinocchio  # noqa: F401
+        have_pin = True
+    except ImportError:
+        have_pin = False
+        print("pinocchio not installed: no ratios")
+    if have_pin:
+        headline(args.clock, args.quick, rng)
+        growth(args.clock, args.quick, args.markdown, rng)
     print(f"{'arm':14s} {'fk_jacobian µs':>15s} {'fk+jacobian µs':>15s} "
           f"{'batch 1e4 /s':>13s} {'batch 1e5 /s':>13s}")
     sizes = (10_000,) if args.quick else (10_000, 100_000)

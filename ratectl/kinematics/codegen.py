@@ -157,13 +157,40 @@ def _is_identity(T: np.ndarray) -> bool:
     return bool(np.all(np.abs(T - np.eye(4)) < _SNAP))
 
 
+def _nonzeros(T: np.ndarray) -> int:
+    return sum(_snap(x) != 0.0 for x in T[:3].ravel())
+
+
+def _peel_rz(post: np.ndarray) -> tuple[float, np.ndarray]:
+    """Write a revolute joint's ``post`` as ``Rz(φ) · post'`` when that makes ``post'``
+    sparser; returns (φ, post').
+
+    ``Rz(q) · Rz(φ) = Rz(q + φ)``, so the joint offset folds into the angle: a standard
+    DH row's ``Rz(θ) Tz(d) Tx(a) Rx(α)`` becomes ``cos(q + θ)`` and the sparse
+    ``Tz(d) Tx(a) Rx(α)``, ~40 % fewer operations per joint than a dense constant
+    product. φ is chosen to zero the (1, 0) entry of the rotation.
+    """
+    phi = math.atan2(post[1, 0], post[0, 0])
+    if abs(phi) < _SNAP:
+        return 0.0, post
+    c, s = math.cos(phi), math.sin(phi)
+    rz = np.eye(4)
+    rz[:2, :2] = [[c, s], [-s, c]]  # Rz(−φ)
+    peeled = rz @ post
+    if _nonzeros(peeled) < _nonzeros(post):
+        return phi, peeled
+    return 0.0, post
+
+
 def _symbolic_chain(joints, base: np.ndarray, tool: np.ndarray):
     """Run the recursion symbolically.
 
     Returns the emitter, the tool frame, and per joint its axis (3 scalars),
-    a point on it (3 scalars) and its kind.
+    a point on it (3 scalars) and its kind. Joint angle offsets folded into the
+    angle (:func:`_peel_rz`) are in ``em.phases``.
     """
     em = _Emitter()
+    em.phases = [0.0] * len(joints)
     frame = _Frame(base)
     pending = np.eye(4)
     axes = []
@@ -175,13 +202,16 @@ def _symbolic_chain(joints, base: np.ndarray, tool: np.ndarray):
         z = [frame.R[r][2] for r in range(3)]
         o = list(frame.p)
         axes.append((joint.kind, z, o))
+        pending = joint.post
         if joint.kind == "revolute":
-            c = em.new(f"cos(q{i})", prefix="c")
-            s = em.new(f"sin(q{i})", prefix="s")
+            phi, pending = _peel_rz(joint.post)
+            em.phases[i] = phi
+            arg = f"q{i}" if phi == 0.0 else f"q{i} + {phi!r}"
+            c = em.new(f"cos({arg})", prefix="c")
+            s = em.new(f"sin({arg})", prefix="s")
             frame.apply_rz(em, c, s)
         else:
             frame.apply_tz(em, f"q{i}")
-        pending = joint.post
     pending = pending @ tool
     if not _is_identity(pending):
         frame.apply_constant(em, pending)
@@ -245,7 +275,7 @@ def generate_source(joints, base: np.ndarray, tool: np.ndarray, *, what: str,
     lines = _live_lines(em, outputs)
     n = len(joints)
     if batched:
-        return _batched_source(n, lines, outputs)
+        return _batched_source(n, lines, outputs, em.phases)
     args = ", ".join(f"q{i}" for i in range(n))
     body = [f"def kernel({args}):"]
     if guard:  # prismatic joint values beyond ±_QMAX m are refused (see MAX_PRISMATIC)
@@ -314,7 +344,7 @@ class _Registers:
         self.free.append(name)
 
 
-def _batched_source(n: int, lines, outputs) -> str:
+def _batched_source(n: int, lines, outputs, phases) -> str:
     """Source of the batched kernel ``kernel(qT, O, W)`` and of ``NWORK``, its number of work rows.
 
     * ``qT`` (n, m): joint positions, one row per joint (any strides);
@@ -357,7 +387,7 @@ def _batched_source(n: int, lines, outputs) -> str:
     for idx, (target, expr) in enumerate(lines):
         tree = parsed[idx]
         if tree is None:  # cos(q_i) or sin(q_i): rows of the work array
-            i = int(expr[5:-1])
+            i = int(re.match(r"\w+\(q(\d+)", expr).group(1))
             home[target] = f"{'c' if expr.startswith('cos') else 's'}q{i}"
             _emit_copies(body, target, home[target], False, slots.get(target, []))
             continue
@@ -389,18 +419,20 @@ def _batched_source(n: int, lines, outputs) -> str:
             regs.give(dest)
 
     head = ["def kernel(qT, O, W):"]
-    head.append(f"    cos(qT, out=W[:{n}])")
-    head.append(f"    sin(qT, out=W[{n}:{2 * n}])")
+    head.append(f"    sincos(qT, {'PHASES' if any(phases) else 'None'}, W, {n})")
     names = [f"cq{i}" for i in range(n)] + [f"sq{i}" for i in range(n)]
     names += [f"r{j}" for j in range(regs.count)]
-    head.append(f"    ({', '.join(names)},) = W")
+    head.append(f"    ({', '.join(names)},) = W[:{len(names)}]")
     if any(f"q{i}" in last_use for i in range(n)):  # prismatic joints use q itself
         head.append(f"    ({', '.join(f'q{i}' for i in range(n))},) = qT")
     head.append(f"    ({', '.join(f'o{k}' for k in range(k_out))},) = O")
     for k, v in enumerate(outputs):
         if not isinstance(v, str):
             body.append(f"    o{k}.fill({float(v)!r})")
-    head.insert(0, f"NWORK = {2 * n + regs.count}  # rows of W: cos q, sin q, registers\n\n")
+    pre = f"NWORK = {2 * n + max(regs.count, 5 * n)}  # rows of W: cos q, sin q, registers\n"
+    if any(phases):
+        pre += f"PHASES = array({[[p] for p in phases]!r})  # joint angle offsets [rad]\n"
+    head.insert(0, pre + "\n")
     return "\n".join(head + body) + "\n"
 
 
@@ -447,6 +479,106 @@ def _emit_tree(body, tree, dest, home, regs) -> None:
         emit(tree, dest)
 
 
+_TRIG_N = 256  # table points per turn: |δ| ≤ π/256, so short polynomials are exact to 1e-17
+_TRIG_RANGE = 2.0e4  # |q + φ| [rad] up to which the table reduction is exact (|k| < 2^20)
+
+
+def _trig_tables():
+    """cos and sin of 2πj/N, j = 0…N−1, correctly rounded (40-digit decimal Taylor series),
+    and the split step ``2π/N = A + B`` with A on 32 bits (k·A exact for |k| < 2²⁰)."""
+    from decimal import Decimal, localcontext
+
+    pi = Decimal("3.14159265358979323846264338327950288419716939937510582097494")
+    with localcontext() as ctx:
+        ctx.prec = 45
+        cos_t, sin_t = [], []
+        for j in range(_TRIG_N):
+            x = 2 * pi * j / _TRIG_N
+            if x > pi:
+                x -= 2 * pi
+            term, c, s, k = Decimal(1), Decimal(0), Decimal(0), 0
+            while k < 80:  # Σ (ix)^k / k!: even terms to cos, odd to sin
+                if k % 4 == 0:
+                    c += term
+                elif k % 4 == 1:
+                    s += term
+                elif k % 4 == 2:
+                    c -= term
+                else:
+                    s -= term
+                k += 1
+                term = term * x / k
+            cos_t.append((float(c), float(c - Decimal(float(c)))))
+            sin_t.append((float(s), float(s - Decimal(float(s)))))
+        step = 2 * pi / _TRIG_N
+        a = math.ldexp(round(math.ldexp(float(step), 37)), -37)
+        b = float(step - Decimal(a))
+        inv = float(_TRIG_N / (2 * pi))
+    cos_t, sin_t = np.array(cos_t), np.array(sin_t)
+    return cos_t[:, 0].copy(), cos_t[:, 1].copy(), sin_t[:, 0].copy(), sin_t[:, 1].copy(), a, b, inv
+
+
+_COS_T, _COS_LO, _SIN_T, _SIN_LO, _STEP_A, _STEP_B, _INV_STEP = _trig_tables()
+
+
+def sincos(qT: np.ndarray, phases, W: np.ndarray, n: int) -> None:
+    """cos(q + φ) into ``W[:n]`` and sin(q + φ) into ``W[n:2n]`` for the (n, m) block qT,
+    using ``W[2n:7n]`` as scratch; one ufunc call per operation over the whole block.
+
+    Table and angle addition: k = round(x N/2π), δ = x − k·2π/N (|δ| ≤ π/N, the step split
+    in two so that δ is exact to ~1e-20), then with (C₀, S₀) = (cos, sin)(2πk/N) from a
+    correctly rounded table, ``cos x = C₀ + (C₀(cos δ − 1) − S₀ sin δ)`` and
+    ``sin x = S₀ + (S₀(cos δ − 1) + C₀ sin δ)``, sin δ and cos δ − 1 by their Taylor
+    series to δ⁵ and δ⁶ (truncation < 1e-17). Error ≲ 1 ulp; numpy's own float64 cos and
+    sin run one element at a time in libm, ~3× slower than these 29 vectorised passes.
+    """
+    C, S = W[:n], W[n:2 * n]
+    x, k, d, e = W[2 * n:3 * n], W[3 * n:4 * n], W[4 * n:5 * n], W[5 * n:6 * n]
+    idx = W[6 * n:7 * n].view(np.int64)
+    if phases is None:
+        x = qT  # read only; the scratch row block x is taken again below
+    else:
+        np.add(qT, phases, out=x)
+    if not (-_TRIG_RANGE <= x.min() and x.max() <= _TRIG_RANGE):  # k·A no longer exact: libm
+        np.cos(x, out=C)
+        np.sin(x, out=S)
+        return
+    np.multiply(x, _INV_STEP, out=k)
+    np.rint(k, out=k)
+    np.multiply(k, _STEP_A, out=e)
+    np.subtract(x, e, out=d)
+    np.multiply(k, _STEP_B, out=e)
+    np.subtract(d, e, out=d)
+    np.copyto(idx, k, casting="unsafe")
+    np.bitwise_and(idx, _TRIG_N - 1, out=idx)
+    np.take(_COS_T, idx, out=C)
+    np.take(_SIN_T, idx, out=S)
+    np.multiply(d, d, out=k)  # δ²
+    x = W[2 * n:3 * n]
+    np.multiply(k, 1.0 / 120.0, out=x)
+    np.add(x, -1.0 / 6.0, out=x)
+    np.multiply(x, k, out=x)
+    np.multiply(x, d, out=x)
+    np.add(x, d, out=x)  # sin δ
+    np.multiply(k, -1.0 / 720.0, out=e)
+    np.add(e, 1.0 / 24.0, out=e)
+    np.multiply(e, k, out=e)
+    np.add(e, -0.5, out=e)
+    np.multiply(e, k, out=e)  # cos δ − 1
+    np.multiply(C, e, out=d)
+    np.multiply(S, x, out=k)
+    np.subtract(d, k, out=d)
+    np.take(_COS_LO, idx, out=k)
+    np.add(d, k, out=d)
+    np.multiply(S, e, out=e)
+    np.multiply(C, x, out=k)
+    np.add(e, k, out=e)
+    np.take(_SIN_LO, idx, out=k)
+    np.add(e, k, out=e)
+    np.add(C, d, out=C)
+    np.add(S, e, out=S)
+
+
 _SERIAL = itertools.count()
 
 
@@ -462,7 +594,8 @@ def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str =
                           guard=guard is not None and not batched)
     if batched:
         namespace = {"cos": np.cos, "sin": np.sin, "add": np.add, "subtract": np.subtract,
-                     "multiply": np.multiply, "negative": np.negative, "copyto": np.copyto}
+                     "multiply": np.multiply, "negative": np.negative, "copyto": np.copyto,
+                     "array": np.array, "sincos": sincos}
     else:
         namespace = {"cos": math.cos, "sin": math.sin}
         if guard is not None:

@@ -11,8 +11,9 @@ import pytest
 
 import ratectl as rc
 from ratectl.kinematics import forward, reference_fk_jacobian
+from ratectl.kinematics.codegen import sincos
 
-TOL = 1e-15
+TOL = 1e-15  # absolute for entries of size ≤ 1 (metres, unit vectors); relative beyond
 
 
 def random_chain(rng, n, *, modified=False, prismatic=0.25):
@@ -50,8 +51,9 @@ def assert_matches_loop(chain, q):
         assert A.flags.c_contiguous and A.flags.writeable and A.dtype == np.float64
     for idx in np.ndindex(*shape):
         t, j = chain.fk_jacobian(q[idx])
-        assert np.max(np.abs(T[idx] - t), initial=0.0) <= TOL
-        assert np.max(np.abs(J[idx] - j), initial=0.0) <= TOL
+        scale = max(1.0, np.max(np.abs(t)), np.max(np.abs(j), initial=0.0))
+        assert np.max(np.abs(T[idx] - t), initial=0.0) <= TOL * scale
+        assert np.max(np.abs(J[idx] - j), initial=0.0) <= TOL * scale
         assert np.array_equal(Tf[idx], T[idx]) and np.array_equal(Jj[idx], J[idx])
 
 
@@ -96,6 +98,24 @@ def test_random_dh_chains_batched_equals_looped_and_reference(seed):
     T, J = chain.fk_jacobian(q)
     Tr, Jr = reference_fk_jacobian(chain, q)
     assert np.max(np.abs(T - Tr)) < 1e-12 and np.max(np.abs(J - Jr)) < 1e-12
+
+
+def test_batched_sine_and_cosine_are_within_one_ulp_of_libm():
+    rng = np.random.default_rng(3)
+    q = np.concatenate([rng.uniform(-7, 7, 4000), rng.uniform(-2e4, 2e4, 1000),
+                        np.arange(-16, 17) * np.pi / 8, [0.0, -0.0, 1e-300, 5e-324, 2e4, -2e4]])
+    q = q[: q.size // 3 * 3].reshape(3, -1)
+    for big in (False, True):  # beyond ±2e4 rad: numpy's own cos and sin
+        x = q * 1e3 if big else q
+        W = np.empty((21, x.shape[1]))
+        sincos(x, None, W, 3)
+        c, s = np.cos(x), np.sin(x)
+        ulp = np.spacing(np.maximum(np.abs(c), np.abs(s)))
+        assert np.all(np.abs(W[:3] - c) <= ulp) and np.all(np.abs(W[3:6] - s) <= ulp)
+        if big:
+            assert np.array_equal(W[:3], c) and np.array_equal(W[3:6], s)
+        else:  # mostly the same bits as libm
+            assert np.mean(W[:3] == c) > 0.9 and np.mean(W[3:6] == s) > 0.9
 
 
 def test_non_contiguous_and_integer_inputs(rng):
