@@ -62,8 +62,7 @@ class _Cycle:
     """The working state of one control cycle, passed from stage to stage."""
 
     __slots__ = ("J", "e", "ep", "eo", "xi", "target", "res", "qd", "qdd", "q_next", "flags", "reasons",
-                 "active", "scale", "smin", "braking", "approach", "qdd_ff", "approach_qd",
-                 "progress_a")
+                 "active", "scale", "smin", "braking", "approach", "qdd_ff", "approach_qd")
 
     def __init__(self) -> None:
         self.flags: list[str] = []
@@ -73,7 +72,6 @@ class _Cycle:
         self.approach = 1.0
         self.qdd_ff = None
         self.approach_qd = None
-        self.progress_a = None
         self.scale = 1.0
         self.smin = math.nan
 
@@ -154,7 +152,6 @@ class ResolvedRateController:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
         self._progress = None
-        self._progress_a = None  # the approach profile's acceleration in the last cycle (None: not used)
         self._target_ok = None  # the last target found rigid (checked again only when it changes)
         self.filter = None
         if smoothing is not False and smoothing is not None:
@@ -195,7 +192,6 @@ class ResolvedRateController:
     def reset(self, qd=None) -> None:
         """Forget the state: previous q̇ (default zero), halt latch, clock, smoother state."""
         self._qd = np.zeros(self._n) if qd is None else np.asarray(qd, dtype=float).copy()
-        self._progress_a = None
         self._qdd = np.zeros(self._n)
         self._q_last = None
         self._latched = ""
@@ -452,7 +448,6 @@ class ResolvedRateController:
         if nxt is None:
             return 1.0, None
         v1, a1 = nxt
-        cyc.progress_a = a1
         return v1 / (K * x), d * a1
 
     # --- stage 4: the limits
@@ -573,7 +568,6 @@ class ResolvedRateController:
         """Update the controller state and return the cycle's frozen :class:`Command`
         (its arrays are read-only and not shared with the controller's state)."""
         qd = cyc.qd
-        self._progress_a = cyc.progress_a
         self._qd = qd.copy()
         self._qdd = cyc.qdd
         self._q_last = q.copy()
@@ -675,7 +669,6 @@ class ResolvedRateController:
               ep=float("nan"), eo=float("nan")) -> Command:
         """Decelerate the previous q̇ to zero within the limits, from the last good q."""
         qd_prev = self._qd
-        self._progress_a = None
         base = q if np.all(np.isfinite(q)) else self._q_last
         if base is None:
             base = np.zeros(self._n)

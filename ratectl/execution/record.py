@@ -125,7 +125,7 @@ class Execution:
                          f"{math.degrees(self.max_orientation_error):.4g}°")
         lines.append(f"  max |q̇|/vmax {self.velocity_ratio:.3f}, max |q̈|/amax {self.acceleration_ratio:.3f}")
         if self.sigma_min is not None and np.any(np.isfinite(self.sigma_min)):
-            lines.append(f"  min σ_min {np.nanmin(self.sigma_min):.4g}")
+            lines.append(f"  min σ_min(J) {np.nanmin(self.sigma_min):.4g} (unscaled J, analyze().sigma_min)")
         if self.statuses:
             lines.append("  statuses: " + ", ".join(f"{k} {v}" for k, v in self.status_counts().items()))
         return "\n".join(lines)
