@@ -6,19 +6,24 @@
     ξ  = ξ_ff + K e                           (feed-forward plus proportional feedback)
     q̇  = q̇_ff + solver(J(q), ξ)               (inverse velocity; q̇_ff optional)
 
-then applies the limits in this order: velocity (uniform scaling, which keeps the
-direction of motion), acceleration (the change of q̇ per cycle is scaled to fit
-amax·dt), joint position (each joint may only move as far as it can still stop before
-its limit at amax in whole periods: q̇ ≤ min(d/dt, a dt (√(1/4 + 2d/(a dt²)) − 1)),
-d = q_max − q, and the same towards q_min). A solver that enforces the limits itself
-(the QP, ``enforces_limits = True``) is not limited again: its bounds and any extra rows
-(collision limits) are kept as solved and only reported. Then the controller optionally
-smooths the result with a Ruckig velocity filter (jerk-limited) and integrates
-``q_next = q + q̇ dt`` (or Ruckig's exact integral).
+then, for pure servoing (a target, no feed-forward), shapes the approach so that the arm
+can always still stop at the target within its joint limits (see ``_approach``: the
+feedback is scaled so each joint can brake within its remaining travel J⁺e; with smoothing,
+a one-DOF Ruckig profile on the progress ‖e‖ gives the speed and the acceleration the
+filter then follows without lag), and applies the limits in this order: velocity (uniform
+scaling, which keeps the direction of motion), acceleration (the change of q̇ per cycle is
+scaled to fit amax·dt), joint position (each joint may only move as fast as it can still
+stop before its limit at amax in whole periods, ``braking_speed_discrete``; without an
+acceleration limit that is d/dt, so the velocity limit alone enforces the range). A solver
+that enforces the limits itself (the QP, ``enforces_limits = True``) is not limited again:
+its bounds and any extra rows (collision limits) are kept as solved and only reported.
+Then the controller optionally smooths the result with a Ruckig velocity filter
+(jerk-limited) and integrates ``q_next = q + q̇ dt`` (or Ruckig's exact integral).
 
 Every call returns a frozen :class:`Command` whose ``status`` says what happened
 (see :data:`STATUSES`). Bad *values* never raise in the loop: a non-finite q,
-target, twist or dt, a target older than ``timeout``, or a solver failure brings a
+target, twist or dt, a target that is not a rigid pose (scaled, mirrored), a target older
+than ``timeout``, or a solver failure brings a
 **safe halt** — the previous q̇ decelerates to zero within the acceleration (and, with
 smoothing, jerk) limits — with the reason in ``Command.reason``. A non-finite input
 latches the halt until :meth:`ResolvedRateController.reset`; a stale target or a
