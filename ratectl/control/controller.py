@@ -157,6 +157,7 @@ class ResolvedRateController:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
         self._progress = None
+        self._all_joints = np.ones(n, dtype=bool)
         self._target_ok = None  # the last target found rigid (checked again only when it changes)
         self.filter = None
         if smoothing is not False and smoothing is not None:
@@ -199,6 +200,7 @@ class ResolvedRateController:
         self._qd = np.zeros(self._n) if qd is None else np.asarray(qd, dtype=float).copy()
         self._qdd = np.zeros(self._n)
         self._q_last = None
+        self._q_next_last = None
         self._latched = ""
         self._dt_last = None
         self.time = 0.0
@@ -573,6 +575,7 @@ class ResolvedRateController:
         """Update the controller state and return the cycle's frozen :class:`Command`
         (its arrays are read-only and not shared with the controller's state)."""
         qd = cyc.qd
+        self._q_next_last = cyc.q_next.copy()
         self._qd = qd.copy()
         self._qdd = cyc.qdd
         self._q_last = q.copy()
@@ -672,29 +675,36 @@ class ResolvedRateController:
     # ------------------------------------------------------------------ halting
     def _halt(self, q, dt, reason, *, status="halted", sigma_min=float("nan"), error=None,
               ep=float("nan"), eo=float("nan")) -> Command:
-        """Decelerate the previous q̇ to zero within the limits, from the last good q."""
+        """Bring every joint to rest as fast as its own limits allow (each joint on its own,
+        so a joint that was braking for its position limit keeps braking at its full rate):
+        |q̇_i| drops by amax_i·dt per period (at once without an acceleration limit), or, with
+        smoothing, each joint's time-optimal jerk-limited stop. The motion continues from
+        the measured q, or — when q is not finite — from the last commanded position, so the
+        commanded stream stays continuous."""
         qd_prev = self._qd
-        base = q if np.all(np.isfinite(q)) else self._q_last
+        if np.all(np.isfinite(q)):
+            base = q
+        else:
+            base = self._q_next_last if self._q_next_last is not None else self._q_last
         if base is None:
             base = np.zeros(self._n)
         smoothed = False
         if self.filter is not None:
             try:
-                q_next, qd, qdd = self.filter.update(base, np.zeros(self._n))
+                q_next, qd, qdd = self.filter.update(base, np.zeros(self._n), independent=self._all_joints)
                 smoothed = True
             except RatectlError as err:  # the filter failed: brake without it
                 reason = f"{reason}; smoothing failed while halting ({err})"
         if not smoothed:
             amax = self.limits.amax if self.limits is not None else np.full(self._n, np.inf)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t_stop = float(np.max(np.where(np.isfinite(amax), np.abs(qd_prev) / amax, 0.0)))
-            factor = max(0.0, 1.0 - dt / t_stop) if t_stop > 0.0 else 0.0
-            qd = qd_prev * factor
+            speed = np.maximum(np.abs(qd_prev) - amax * dt, 0.0)  # inf amax: 0 at once
+            qd = np.sign(qd_prev) * speed
             q_next = base + qd * dt
             qdd = (qd - qd_prev) / dt
         self._qd = qd.copy()
         self._qdd = qdd
         self._q_last = base.copy()
+        self._q_next_last = q_next.copy()
         t0 = self.time
         self.time = t0 + dt
         return make_command(qd=qd, q_next=q_next, qdd=qdd.copy(), status=status, flags=(status,),
