@@ -44,7 +44,9 @@ class Command:
         error: pose error e = [p_d − p; log(R_d Rᵀ)] (6,) (zeros without a target).
         position_error: ‖p_d − p‖ [m]; orientation_error: ‖log(R_d Rᵀ)‖ [rad].
         twist: the twist ξ = ξ_ff + K e that was resolved (6,).
-        sigma_min: σ_min(J) reported by the solver (NaN if it does not compute it).
+        sigma_min: σ_min(J) of the unscaled Jacobian (mixed units) at the cycle's q, as reported by
+            the solver (NaN if it does not compute it): the same quantity as
+            ``rc.analyze(chain, q).sigma_min`` (analyze's report prints the scaled σ_min(J_L)).
         damping: damping λ the solver used (0 = undamped).
         task_error: ξ − J q̇_solver, what the solver gave up (6,).
         velocity_scale: uniform factor applied for vmax (1 = none).
@@ -94,7 +96,7 @@ class Command:
         extra = f" ({self.kind})" if self.status in ("damped", "singular") else ""
         r = f": {self.reason}" if self.reason else ""
         return (f"Command[{self.status}{extra}{r}; |e_p| = {self.position_error * 1e3:.3g} mm, "
-                f"|e_R| = {math.degrees(self.orientation_error):.3g}°, σ_min = {self.sigma_min:.3g}, "
+                f"|e_R| = {math.degrees(self.orientation_error):.3g}°, σ_min(J) = {self.sigma_min:.3g}, "
                 f"λ = {self.damping:.3g}, max|q̇| = {float(np.max(np.abs(self.qd))):.3g}]")
 
 

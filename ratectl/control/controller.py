@@ -6,19 +6,24 @@
     ξ  = ξ_ff + K e                           (feed-forward plus proportional feedback)
     q̇  = q̇_ff + solver(J(q), ξ)               (inverse velocity; q̇_ff optional)
 
-then applies the limits in this order: velocity (uniform scaling, which keeps the
-direction of motion), acceleration (the change of q̇ per cycle is scaled to fit
-amax·dt), joint position (each joint may only move as far as it can still stop before
-its limit at amax in whole periods: q̇ ≤ min(d/dt, a dt (√(1/4 + 2d/(a dt²)) − 1)),
-d = q_max − q, and the same towards q_min). A solver that enforces the limits itself
-(the QP, ``enforces_limits = True``) is not limited again: its bounds and any extra rows
-(collision limits) are kept as solved and only reported. Then the controller optionally
-smooths the result with a Ruckig velocity filter (jerk-limited) and integrates
-``q_next = q + q̇ dt`` (or Ruckig's exact integral).
+then, for pure servoing (a target, no feed-forward), shapes the approach so that the arm
+can always still stop at the target within its joint limits (see ``_approach``: the
+feedback is scaled so each joint can brake within its remaining travel J⁺e; with smoothing,
+a one-DOF Ruckig profile on the progress ‖e‖ gives the speed and the acceleration the
+filter then follows without lag), and applies the limits in this order: velocity (uniform
+scaling, which keeps the direction of motion), acceleration (the change of q̇ per cycle is
+scaled to fit amax·dt), joint position (each joint may only move as fast as it can still
+stop before its limit at amax in whole periods, ``braking_speed_discrete``; without an
+acceleration limit that is d/dt, so the velocity limit alone enforces the range). A solver
+that enforces the limits itself (the QP, ``enforces_limits = True``) is not limited again:
+its bounds and any extra rows (collision limits) are kept as solved and only reported.
+Then the controller optionally smooths the result with a Ruckig velocity filter
+(jerk-limited) and integrates ``q_next = q + q̇ dt`` (or Ruckig's exact integral).
 
 Every call returns a frozen `Command` whose ``status`` says what happened
 (see `STATUSES`). Bad *values* never raise in the loop: a non-finite q,
-target, twist or dt, a target older than ``timeout``, or a solver failure brings a
+target, twist or dt, a target that is not a rigid pose (scaled, mirrored), a target older
+than ``timeout``, or a solver failure brings a
 **safe halt** — the previous q̇ decelerates to zero within the acceleration (and, with
 smoothing, jerk) limits — with the reason in ``Command.reason``. A non-finite input
 latches the halt until `ResolvedRateController.reset`; a stale target or a
@@ -152,6 +157,7 @@ class ResolvedRateController:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
         self._progress = None
+        self._all_joints = np.ones(n, dtype=bool)
         self._target_ok = None  # the last target found rigid (checked again only when it changes)
         self.filter = None
         if smoothing is not False and smoothing is not None:
@@ -194,6 +200,7 @@ class ResolvedRateController:
         self._qd = np.zeros(self._n) if qd is None else np.asarray(qd, dtype=float).copy()
         self._qdd = np.zeros(self._n)
         self._q_last = None
+        self._q_next_last = None
         self._latched = ""
         self._dt_last = None
         self.time = 0.0
@@ -379,7 +386,7 @@ class ResolvedRateController:
         linear in ξ; for a vector gain the largest K, which under-estimates w: the safe
         side). Joint i may approach at most at the speed from which it can stop within
         w_i: ``braking_speed_discrete`` at η·amax in periods of dt (the discrete
-        √(2 η amax w)), or, smoothed, :func:`~ratectl.model.limits.braking_speed` at η·amax,
+        √(2 η amax w)), or, smoothed, `braking_speed` at η·amax,
         η·jmax — and 0 when the filter's own state (v, a) one period ahead could no longer
         stop within w_i. q̇ is scaled uniformly by the smallest ratio, so the tool keeps its
         straight approach; η = 1/2 keeps headroom for the change of J along the way. Far
@@ -422,7 +429,7 @@ class ResolvedRateController:
         the tool moves straight along ê), hence the progress may move at ẋ ≤ minᵢ vmaxᵢ/|dᵢ|,
         accelerate at α = η·minᵢ amaxᵢ/|dᵢ| and jerk at ζ = η·minᵢ jmaxᵢ/|dᵢ|. From the
         filter's state projected on d (ṡ = v·d/d·d, s̈ = a·d/d·d), a
-        :class:`~ratectl.control.smoothing.ProgressProfile` (Ruckig, one degree of freedom)
+        `ProgressProfile` (Ruckig, one degree of freedom)
         gives the time-optimal motion that comes to rest at x; one period of it, capped by
         the proportional law ẋ ≤ K x, is the command. Its acceleration s̈·d is passed to the
         filter as the target acceleration: the reference is feasible, so the filter follows
@@ -568,6 +575,7 @@ class ResolvedRateController:
         """Update the controller state and return the cycle's frozen `Command`
         (its arrays are read-only and not shared with the controller's state)."""
         qd = cyc.qd
+        self._q_next_last = cyc.q_next.copy()
         self._qd = qd.copy()
         self._qdd = cyc.qdd
         self._q_last = q.copy()
@@ -627,6 +635,8 @@ class ResolvedRateController:
                 flags.insert(0, "joint-limit")
             reasons.insert(0, f"joint(s) {joints} braking for a position limit (jerk-limited stop)")
             active.append("position")
+        else:
+            clipped = qd  # unchanged: the same array (the approach's acceleration stays valid)
         return clipped, stop_up | stop_lo  # the braking joints stop time-optimally, on their own
 
     def _report_solver_limits(self, res, qd, smin, flags, reasons, scale):
@@ -665,29 +675,36 @@ class ResolvedRateController:
     # ------------------------------------------------------------------ halting
     def _halt(self, q, dt, reason, *, status="halted", sigma_min=float("nan"), error=None,
               ep=float("nan"), eo=float("nan")) -> Command:
-        """Decelerate the previous q̇ to zero within the limits, from the last good q."""
+        """Bring every joint to rest as fast as its own limits allow (each joint on its own,
+        so a joint that was braking for its position limit keeps braking at its full rate):
+        |q̇_i| drops by amax_i·dt per period (at once without an acceleration limit), or, with
+        smoothing, each joint's time-optimal jerk-limited stop. The motion continues from
+        the measured q, or — when q is not finite — from the last commanded position, so the
+        commanded stream stays continuous."""
         qd_prev = self._qd
-        base = q if np.all(np.isfinite(q)) else self._q_last
+        if np.all(np.isfinite(q)):
+            base = q
+        else:
+            base = self._q_next_last if self._q_next_last is not None else self._q_last
         if base is None:
             base = np.zeros(self._n)
         smoothed = False
         if self.filter is not None:
             try:
-                q_next, qd, qdd = self.filter.update(base, np.zeros(self._n))
+                q_next, qd, qdd = self.filter.update(base, np.zeros(self._n), independent=self._all_joints)
                 smoothed = True
             except RatectlError as err:  # the filter failed: brake without it
                 reason = f"{reason}; smoothing failed while halting ({err})"
         if not smoothed:
             amax = self.limits.amax if self.limits is not None else np.full(self._n, np.inf)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t_stop = float(np.max(np.where(np.isfinite(amax), np.abs(qd_prev) / amax, 0.0)))
-            factor = max(0.0, 1.0 - dt / t_stop) if t_stop > 0.0 else 0.0
-            qd = qd_prev * factor
+            speed = np.maximum(np.abs(qd_prev) - amax * dt, 0.0)  # inf amax: 0 at once
+            qd = np.sign(qd_prev) * speed
             q_next = base + qd * dt
             qdd = (qd - qd_prev) / dt
         self._qd = qd.copy()
         self._qdd = qdd
         self._q_last = base.copy()
+        self._q_next_last = q_next.copy()
         t0 = self.time
         self.time = t0 + dt
         return make_command(qd=qd, q_next=q_next, qdd=qdd.copy(), status=status, flags=(status,),

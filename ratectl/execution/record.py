@@ -193,7 +193,7 @@ class Execution:
                          f"{math.degrees(self.max_orientation_error):.4g}°")
         lines.append(f"  max |q̇|/vmax {self.velocity_ratio:.3f}, max |q̈|/amax {self.acceleration_ratio:.3f}")
         if self.sigma_min is not None and np.any(np.isfinite(self.sigma_min)):
-            lines.append(f"  min σ_min {np.nanmin(self.sigma_min):.4g}")
+            lines.append(f"  min σ_min(J) {np.nanmin(self.sigma_min):.4g} (unscaled J, analyze().sigma_min)")
         if self.periods is not None and len(self.periods) > 1:
             lines.append(f"  loop {self.achieved_rate_hz:.1f} Hz of {self.rate_hz:g} Hz requested; period "
                          f"p50 {self.period_p50 * 1e3:.3f} ms, p99 {self.period_p99 * 1e3:.3f} ms, "

@@ -187,7 +187,7 @@ def _symbolic_chain(joints, base: np.ndarray, tool: np.ndarray):
 
     Returns the emitter, the tool frame, and per joint its axis (3 scalars),
     a point on it (3 scalars) and its kind. Joint angle offsets folded into the
-    angle (:func:`_peel_rz`) are in ``em.phases``.
+    angle (`_peel_rz`) are in ``em.phases``.
     """
     em = _Emitter()
     em.phases = [0.0] * len(joints)

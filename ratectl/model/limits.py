@@ -165,7 +165,7 @@ def braking_speed(d, amax, jmax) -> np.ndarray:
 
 
 def braking_speed_slope(d, amax, jmax) -> np.ndarray:
-    """The derivative db/dd [1/s] of :func:`braking_speed` b(d): a joint braking along that
+    """The derivative db/dd [1/s] of `braking_speed` b(d): a joint braking along that
     curve toward a point at distance d decelerates at b'(d)·b(d), so a command that
     follows the curve has acceleration −b'(d)·b(d) (≤ amax, jerk-limited near d = 0):
 

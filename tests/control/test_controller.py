@@ -401,3 +401,21 @@ def test_a_target_that_is_not_a_rigid_pose_halts_with_the_reason(ur5e, bad):
     if bad != "nan":  # not latched: the next good target resumes
         cmd = ctrl.step(cmd.q_next, target=good, dt=1e-3)
         assert cmd.status != "halted"
+
+
+def test_sigma_min_is_the_same_quantity_as_analyze_reports(ur5e):
+    """Command.sigma_min, follow's per-step σ_min and rc.analyze(...).sigma_min are all σ_min
+    of the unscaled J, and the texts say so; analyze's report names its scaled σ_min(J_L)."""
+    q = Q_REG.copy()
+    rep = rc.analyze(ur5e, q)
+    for solver in (None, rc.solvers.DLS(damping=0.01), rc.solvers.QP()):
+        cmd = rc.ResolvedRateController(ur5e, solver=solver).step(q, twist=np.zeros(6), dt=1e-3)
+        assert cmd.sigma_min == pytest.approx(rep.sigma_min, rel=1e-9)
+        assert "σ_min(J) =" in str(cmd)
+    assert "σ_min(J_L)" in str(rep) and rep.sigma_min_scaled != pytest.approx(rep.sigma_min)
+    T0 = ur5e.fk(q)
+    run = rc.follow(ur5e, rc.paths.Line(T0, _shifted(T0, [0.01, 0.0, 0.0]), speed=0.1, acceleration=1.0), q,
+                    dt=4e-3)
+    k = int(np.nanargmin(run.sigma_min))
+    assert run.sigma_min[k] == pytest.approx(rc.analyze(ur5e, run.q[k]).sigma_min, rel=1e-9)
+    assert "min σ_min(J)" in run.summary() and "analyze" in run.summary()

@@ -1,0 +1,92 @@
+"""Limits that hold under faults: one-sided position limits, safe halts per joint, halts on
+a non-finite measurement, acceleration feed-forward at the velocity limit."""
+
+import math
+
+import numpy as np
+import pytest
+
+import ratectl as rc
+
+Q_REG = np.array([0.0, -1.2, 1.4, -1.8, 0.9, 0.3])
+
+
+@pytest.fixture
+def ur5e():
+    return rc.robots.ur5e()
+
+
+@pytest.mark.parametrize("smoothing", [False, True], ids=["plain", "smooth"])
+def test_one_sided_position_limits_hold(ur5e, smoothing):
+    """qlim = (−inf, 0.5): the joint driven by qd_ff stops at 0.5 (it ran on to 2.95 rad)."""
+    arm = ur5e.with_limits(qlim=(-math.inf, 0.5))
+    ctrl = rc.ResolvedRateController(arm, smoothing=smoothing)
+    q = np.zeros(6)
+    ff = np.zeros(6)
+    ff[0] = 1.0
+    top = -math.inf
+    for _ in range(1500):
+        cmd = ctrl.step(q, qd_ff=ff, dt=1e-3)
+        q = cmd.q_next
+        top = max(top, q[0])
+    assert top <= 0.5 + 1e-9 and q[0] > 0.49
+    assert cmd.status == "joint-limit"
+
+
+@pytest.mark.parametrize("smoothing", [False, True], ids=["plain", "smooth"])
+def test_a_halt_brakes_each_joint_within_its_own_limits(ur5e, smoothing):
+    """A joint braking hard for its position limit keeps braking when a halt comes (the
+    halt used to slow all joints together, stretching that joint past its limit)."""
+    ctrl = rc.ResolvedRateController(ur5e, smoothing=smoothing)
+    q = np.array([0.0, -1.2, math.pi - 0.6, -1.8, 0.9, 0.3])
+    ff = np.zeros(6)
+    ff[0] = ff[2] = 3.0
+    worst = -math.inf
+    qd_prev = np.zeros(6)
+    for k in range(1500):
+        bad = k >= 230  # a non-finite twist from here on: a latched halt
+        cmd = ctrl.step(q, qd_ff=ff, twist=np.full(6, np.nan) if bad else None, dt=1e-3)
+        assert np.all(np.abs(cmd.qd - qd_prev) <= ur5e.amax * 1e-3 * (1 + 1e-9))
+        qd_prev = cmd.qd
+        q = cmd.q_next
+        worst = max(worst, q[2] - ur5e.upper[2])
+    assert cmd.status == "halted" and np.all(np.abs(cmd.qd) < 1e-9)
+    assert worst <= 1e-9
+
+
+@pytest.mark.parametrize("smoothing", [False, True], ids=["plain", "smooth"])
+def test_a_halt_on_a_nan_measurement_keeps_the_commanded_stream_continuous(ur5e, smoothing):
+    """With q = NaN the halt continues from the last commanded position: the q_next stream
+    never stalls for a period (which implied |q̈| of 200× amax)."""
+    ctrl = rc.ResolvedRateController(ur5e, smoothing=smoothing)
+    q = Q_REG.copy()
+    ff = np.zeros(6)
+    ff[0] = 2.0
+    qs = []
+    for k in range(1000):
+        meas = q.copy()
+        if k == 500:
+            meas[2] = math.nan
+        cmd = ctrl.step(meas, qd_ff=ff, dt=1e-3)
+        q = cmd.q_next
+        qs.append(q)
+    acc = np.diff(np.array(qs), 2, axis=0) / 1e-6
+    assert np.max(np.abs(acc) / ur5e.amax) <= 1.0 + 1e-6
+    assert cmd.status == "halted" and np.all(np.abs(cmd.qd) < 1e-9)
+
+
+def test_smoothing_with_acceleration_feed_forward_at_the_velocity_limit(ur5e):
+    """A planned q̇ at vmax with a non-zero q̈ feed-forward pushing outward stays ≤ vmax
+    (it reached 1.69× vmax)."""
+    ctrl = rc.ResolvedRateController(ur5e, smoothing=True)
+    q = Q_REG.copy()
+    worst = 0.0
+    for k in range(1500):
+        ff = np.zeros(6)
+        ff[0] = ur5e.vmax[0] * min(1.0, k / 500)
+        acc = np.zeros(6)
+        acc[0] = 8.0
+        cmd = ctrl.step(q, qd_ff=ff, qdd_ff=acc, dt=1e-3)
+        q = cmd.q_next
+        worst = max(worst, float(np.max(np.abs(cmd.qd) / ur5e.vmax)))
+    assert worst <= 1.0 + 1e-9
