@@ -114,7 +114,12 @@ def exact_and_near(arm_name, joint, kind, q, lo, hi, *, near=None, seed=1, **kw)
         def make():
             arm = rc.robots.BUILTIN[arm_name]()
             qs = det_root(arm, q, joint, lo, hi, kind)
-            return (arm, *crossing_line(arm, qs, _unit(arm.dof, joint, 1.0, seed), offset=offset, **kw))
+            for sd in range(seed, seed + 8):  # a crossing direction whose path stays in the joint range
+                try:
+                    return (arm, *crossing_line(arm, qs, _unit(arm.dof, joint, 1.0, sd), offset=offset, **kw))
+                except RuntimeError:
+                    continue
+            raise RuntimeError(f"no followable {kind} crossing of {arm.name}")
         return make
     return build(0.0), build(near) if near else None
 

@@ -41,6 +41,7 @@ the feedback's accuracy.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -113,6 +114,11 @@ class GovernorPlan:
             object.__setattr__(self, name, a)
         object.__setattr__(self, "info", MappingProxyType(dict(self.info)))
 
+    def __reduce__(self):
+        values = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        values["info"] = dict(values["info"])
+        return _restore_plan, (values,)
+
     @property
     def slowdown(self) -> float:
         """duration / nominal duration (≥ 1 when the governor had to slow down)."""
@@ -120,6 +126,11 @@ class GovernorPlan:
 
     def __len__(self) -> int:
         return len(self.t)
+
+
+def _restore_plan(values) -> GovernorPlan:
+    """Unpickle a :class:`GovernorPlan` (its read-only mapping is pickled as a dict)."""
+    return GovernorPlan(**values)
 
 
 @dataclass(frozen=True)
