@@ -225,12 +225,12 @@ def cases():
     out["ur5e shoulder exact"], out["ur5e shoulder near (2 mm off)"] = exact_and_near(
         "ur5e", 1, "shoulder", [0.3, -1.0, 1.2, -1.2, 1.2, 0.3], -3.1, 0.0, near=2e-3, half=0.08)
     out["puma560 wrist exact"], out["puma560 wrist near (1 mm off)"] = exact_and_near(
-        "puma560", 4, "wrist", [0.2, 0.6, -0.4, 0.3, 0.0, 0.2], -0.5, 0.5, near=1e-3, half=0.08)
+        "puma560", 4, "wrist", [0.2, 0.6, -0.4, -1.0, 0.0, 0.0], -0.5, 0.5, near=1e-3, half=0.08)
     out["puma560 elbow exact (arc)"] = elbow_arc("puma560", 2, [0.2, 0.6, -1.0, 0.3, 0.8, 0.2], -3.5, 0.7)
     out["puma560 shoulder exact"], _ = exact_and_near(
         "puma560", 1, "shoulder", [0.2, 0.6, -1.0, 0.3, 0.8, 0.2], -0.7, 3.9, half=0.06)
     out["stanford wrist exact"], out["stanford wrist near (1 mm off)"] = exact_and_near(
-        "stanford", 4, "wrist", [0.2, 0.8, 0.6, 0.3, 0.0, 0.2], -0.5, 0.5, near=1e-3, half=0.08)
+        "stanford", 4, "wrist", [0.2, 0.8, 0.6, -1.0, 0.0, 1.0], -0.5, 0.5, near=1e-3, half=0.08)
     out["iiwa7 line to near full reach"] = reach_line("iiwa7", [0.2, 0.5, 0.1, -0.03, 0.3, 0.6, 0.1], 3)
     out["panda line past a straight elbow"] = wrist_near("panda", [0.1, -0.3, 0.1, -0.08, 0.2, 1.0, 0.5],
                                                          half=0.06)
