@@ -41,6 +41,7 @@ the feedback's accuracy.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -113,6 +114,11 @@ class GovernorPlan:
             object.__setattr__(self, name, a)
         object.__setattr__(self, "info", MappingProxyType(dict(self.info)))
 
+    def __reduce__(self):
+        values = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        values["info"] = dict(values["info"])
+        return _restore_plan, (values,)
+
     @property
     def slowdown(self) -> float:
         """duration / nominal duration (≥ 1 when the governor had to slow down)."""
@@ -120,6 +126,11 @@ class GovernorPlan:
 
     def __len__(self) -> int:
         return len(self.t)
+
+
+def _restore_plan(values) -> GovernorPlan:
+    """Unpickle a `GovernorPlan` (its read-only mapping is pickled as a dict)."""
+    return GovernorPlan(**values)
 
 
 @dataclass(frozen=True)
@@ -195,18 +206,20 @@ class Governor:
         mv = np.full(N, self.velocity_margin)
         ma = np.full(N, self.acceleration_margin)
         for it in range(1, self.max_iterations + 1):
-            prof, (s, sd, sdd) = self._progress(jp, path, lim, mv, ma, dt)
+            prof, (s, sd, sdd), window = self._progress(jp, path, lim, mv, ma, dt)
             q = jp.interpolate(s)
-            chk = _check(q, s, dt, lim, self.check_jerk)
+            chk = _check(q, s, dt, lim, self.check_jerk, spread_steps=int(math.ceil(window / dt)))
             f = self.check_fraction
             if max(chk.rv, chk.ra, chk.rj) <= f or it == self.max_iterations:
                 break
-            _lower_locally(jp.s, chk.bad_s, mv, ma, speed=chk.rv > f, accel=chk.ra > f or chk.rj > f)
+            _lower_locally(jp.s, chk.bad_s, mv, ma, speed=chk.rv > f or chk.rj > f,
+                           accel=chk.ra > f or chk.rj > f)
         return _assemble(chain, path, jp, dt, prof, s, sd, sdd, q, chk, (float(mv.min()), float(ma.min())),
                          it, self.check_fraction)
 
     def _progress(self, jp: JointPath, path, lim, mv, ma, dt):
-        """The speed profile at the current margins and the progress (s, ṡ, s̈) sampled every dt."""
+        """The speed profile at the current margins, the progress (s, ṡ, s̈) sampled every dt and
+        the averaging window of a smoothed progress [s] (0 without smoothing)."""
         vmax, amax, jmax = lim
         vl, al = mv[:, None] * vmax, ma[:, None] * amax
         if self.check_jerk:
@@ -214,13 +227,15 @@ class Governor:
             with np.errstate(divide="ignore"):
                 sd_j = np.min(np.cbrt(ma[:, None] * jmax / np.maximum(np.abs(jp.dddq), 1e-300)), axis=1)
             vl = np.minimum(vl, sd_j[:, None] * np.abs(jp.dq))
-        prof = reachability_profile(jp, vl, al, path.speed, path.acceleration)
+        # a margin lowered locally lowers the path's own speed and acceleration there too
+        prof = reachability_profile(jp, vl, al, path.speed * mv / self.velocity_margin,
+                                    path.acceleration * ma / self.acceleration_margin)
         if not self.check_jerk:
-            return prof, prof.sample(dt)
+            return prof, prof.sample(dt), 0.0
         jerk = self.jerk or path.jerk or 20.0 * path.acceleration
         window = max(2.0 * float(np.max(self.acceleration_margin * amax / jmax)),
                      2.0 * path.acceleration / jerk) / self.check_fraction
-        return prof, _smooth_progress(prof, dt=dt, window=window)
+        return prof, _smooth_progress(prof, dt=dt, window=window), window
 
 
 def _trim_singular_end(jp: JointPath, *, reach: float = 5e-5, qprime: float = 300.0) -> JointPath:
@@ -247,7 +262,7 @@ def _trim_singular_end(jp: JointPath, *, reach: float = 5e-5, qprime: float = 30
     return jp.trimmed(k, complete=True, message=note, singular_end=True)
 
 
-def _check(q, s, dt, lim, with_jerk: bool) -> _Check:
+def _check(q, s, dt, lim, with_jerk: bool, spread_steps: int = 0) -> _Check:
     """Limit ratios of the discrete motion q[k] (secant velocities, their differences)."""
     vmax, amax, jmax = lim
     qd = np.zeros_like(q)
@@ -260,8 +275,11 @@ def _check(q, s, dt, lim, with_jerk: bool) -> _Check:
         rj_k[1:] = np.max(np.abs(np.diff(qdd, axis=0)) / dt / jmax, axis=1)
     worst = np.maximum(np.maximum(rv_k, ra_k), rj_k)
     bad = np.flatnonzero(worst > 0.99)
+    # a smoothed progress at step k depends on the profile over the averaging window before it
+    spread = np.arange(-spread_steps - 1, 2)
+    near = np.clip((bad[:, None] + spread[None, :]).ravel(), 0, len(s) - 1)
     return _Check(rv=float(rv_k.max()), ra=float(ra_k.max()), rj=float(rj_k.max()) if with_jerk else math.nan,
-                  bad_s=s[np.clip(np.concatenate([bad - 1, bad, bad + 1]), 0, len(s) - 1)])
+                  bad_s=s[np.unique(near)])
 
 
 def _lower_locally(grid, bad_s, mv, ma, *, speed: bool, accel: bool, factor: float = 0.9) -> None:

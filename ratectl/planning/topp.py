@@ -87,17 +87,19 @@ class SpeedProfile:
         return s, sd, self.u[i]
 
 
-def constraint_rows(jp: JointPath, vlim, alim, path_speed: float, path_acc: float):
+def constraint_rows(jp: JointPath, vlim, alim, path_speed, path_acc):
     """Rows a u + b x ≤ c per grid point ((N, m) arrays a, b, c) and the velocity bound on x.
 
-    ``vlim`` and ``alim`` may be (n,) or (N, n) (per-point margins)."""
+    ``vlim`` and ``alim`` may be (n,) or (N, n) (per-point margins), ``path_speed`` and
+    ``path_acc`` scalars or (N,)."""
     d1, d2 = jp.dq, jp.ddq
     N, n = d1.shape
     alim = np.broadcast_to(alim, (N, n))
     vlim = np.broadcast_to(vlim, (N, n))
     a = np.concatenate([d1, -d1, np.ones((N, 1)), -np.ones((N, 1))], axis=1)
     b = np.concatenate([d2, -d2, np.zeros((N, 2))], axis=1)
-    c = np.concatenate([alim, alim, np.full((N, 2), path_acc)], axis=1)
+    pa = np.broadcast_to(np.asarray(path_acc, dtype=float).reshape(-1, 1), (N, 2))
+    c = np.concatenate([alim, alim, pa], axis=1)
     with np.errstate(divide="ignore", over="ignore"):
         xv = np.min((vlim / np.maximum(np.abs(d1), 1e-300)) ** 2, axis=1)
     return a, b, c, np.minimum(xv, path_speed**2)
@@ -152,13 +154,14 @@ def _controllable(a, b, c, mvc, S, x_end: float):
     return lo, hi
 
 
-def reachability_profile(jp: JointPath, vlim, alim, path_speed: float, path_acc: float, *,
+def reachability_profile(jp: JointPath, vlim, alim, path_speed, path_acc, *,
                          x_start: float = 0.0, x_end: float = 0.0) -> SpeedProfile:
     """Time-optimal x = ṡ² on the grid of ``jp`` by reachability analysis (module docstring).
 
     Args:
         jp: the joint path; vlim, alim: joint velocity / acceleration limits [rad/s, rad/s²],
-            (n,) or (N, n) per grid point; path_speed, path_acc: the path's ṡ and s̈ limits.
+            (n,) or (N, n) per grid point; path_speed, path_acc: the path's ṡ and s̈ limits
+            (scalars or (N,) per grid point).
         x_start, x_end: ṡ² at the ends (0: start and end at rest).
 
     A grid point where no admissible x exists (the controllable set is empty, e.g. a

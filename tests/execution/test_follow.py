@@ -354,3 +354,50 @@ def test_start_rotated_half_a_turn_about_the_tool_axis(ur5e, scenario):
     assert run.completed, run.message
     assert run.max_position_error < 1e-5
     assert np.linalg.norm(run.poses[-1][:3, 3] - line.end[:3, 3]) < 1e-4
+
+
+def _exact_wrist_line(arm):
+    """A UR5e line through the wrist singularity q5 = 0 itself: its tangent twist is J(q*)·q̇*
+    at the singular q*, so it lies in the range of J."""
+    q_star = np.array([0.0, -2.0, -1.6, -1.2, 0.0, 0.0])
+    qd_star = np.array([0.1, -0.2, 0.15, 0.05, 1.0, -0.1])
+    Tc, J = arm.fk_jacobian(q_star)
+    xi = J @ qd_star
+    scale = 1.0 / math.hypot(np.linalg.norm(xi[:3]), 0.1 * np.linalg.norm(xi[3:]))
+    Ta, Tb = Tc.copy(), Tc.copy()
+    Ta[:3, 3] -= 0.1 * scale * xi[:3]
+    Tb[:3, 3] += 0.1 * scale * xi[:3]
+    Ta[:3, :3] = rc.spatial.so3_exp(-0.1 * scale * xi[3:]) @ Tc[:3, :3]
+    Tb[:3, :3] = rc.spatial.so3_exp(0.1 * scale * xi[3:]) @ Tc[:3, :3]
+    q0 = rc.ik(arm, Ta, q_star - 0.1 * scale * qd_star, max_step=0.05).q
+    return rc.paths.Line(Ta, Tb, speed=0.25, acceleration=1.0), np.array(q0)
+
+
+def _check_run(arm, run, line, *, path_error, jerk=False):
+    assert run.max_position_error <= path_error and run.max_orientation_error <= math.radians(0.01)
+    assert np.linalg.norm(run.poses[-1][:3, 3] - line.end[:3, 3]) <= 1e-4
+    qd = np.diff(run.q, axis=0) / DT
+    assert np.all(np.abs(qd) <= arm.vmax * (1 + 1e-9))
+    assert np.all(np.abs(np.diff(qd, axis=0)) / DT <= arm.amax * (1 + 1e-9))
+    assert _within(arm, run.q)
+    if jerk:
+        assert np.all(np.abs(np.diff(run.qdd, axis=0)) / DT <= arm.jmax * (1 + 1e-6))
+
+
+def test_follow_crosses_the_exact_wrist_singularity_time_optimally(ur5e):
+    """Issue #13: the exact wrist crossing completes on the path within every limit in the time
+    of the time-optimal profile (at the governor's margins); smoothed, it stays within 0.05 mm and jmax
+    and takes at most 1.5× as long."""
+    line, q0 = _exact_wrist_line(ur5e)
+    run = rc.follow(ur5e, line, q0, dt=DT)
+    assert run.completed, run.message
+    _check_run(ur5e, run, line, path_error=1e-5)
+    assert np.min(np.abs(run.q[:, 4])) < 2e-3 and run.q[0, 4] * run.q[-1, 4] < 0  # through q5 = 0
+    smoothed = rc.follow(ur5e, line, q0, dt=DT, controller=rc.ResolvedRateController(ur5e, smoothing=True))
+    assert smoothed.completed, smoothed.message
+    _check_run(ur5e, smoothed, line, path_error=5e-5, jerk=True)
+    assert smoothed.duration <= 1.5 * run.duration
+    # the run takes the time of the reachability profile (which tests/planning/test_topp.py
+    # checks against toppra), plus the settling steps
+    plan = run.info["plan"]
+    assert run.duration <= plan.optimal_duration / 0.96 + 0.01
