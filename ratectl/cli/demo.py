@@ -451,7 +451,8 @@ def plot_comparison(comparison: Comparison, path) -> str:
             matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise RatectlError("plotting needs matplotlib: pip install 'ratectl[plot]'") from exc
+        raise RatectlError("plotting needs matplotlib: pip install matplotlib (or, in ratectl's source tree, "
+                           "pip install -e '.[plot]')") from exc
     sc = comparison.scenario
     colours = dict(zip(METHODS, ["tab:red", "tab:orange", "tab:purple", "tab:blue", "tab:green"],
                        strict=True))

@@ -14,7 +14,7 @@
   `Execution` like `ratectl.follow`;
   `render_frames` renders configurations offscreen.
 
-``mujoco`` and ``mink`` (the ``ratectl[mujoco]`` extra) are imported here only;
+``mujoco`` and ``mink`` (the ``mujoco`` extra: ``pip install -e ".[mujoco]"``) are imported here only;
 the rest of ratectl never needs them.
 
 Conventions (ratectl's): Jacobian rows ``[v; ω]`` in world axes with the linear part
