@@ -83,10 +83,11 @@ class GovernorPlan:
         x_limit: (N,) admissible ṡ² on the joint-path grid (after margins).
         nominal_duration: duration of the path's own time law [s].
         duration: duration of the governed motion [s].
-        velocity_ratio, acceleration_ratio: the largest |q̇_i|/vmax_i and |q̈_i|/amax_i of
-            the planned discrete motion.
+        velocity_ratio: the largest |q̇_i|/vmax_i of the planned discrete motion.
+        acceleration_ratio: the largest |q̈_i|/amax_i of the planned discrete motion.
         margins: (velocity, acceleration) fractions finally used.
-        complete: the plan reaches the end of the path; message: why not, if not.
+        complete: the plan reaches the end of the path.
+        message: why not, if not.
     """
 
     dt: float
