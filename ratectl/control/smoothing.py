@@ -50,7 +50,11 @@ class VelocityFilter:
     acceleration.
 
     Args:
-        dof: number of joints; dt: period [s]; vmax, amax, jmax: (n,) or scalar limits.
+        dof: number of joints.
+        dt: period [s].
+        vmax: (n,) or scalar velocity limits.
+        amax: (n,) or scalar acceleration limits.
+        jmax: (n,) or scalar jerk limits.
     """
 
     def __init__(self, dof: int, *, dt: float, vmax, amax, jmax) -> None:

@@ -25,7 +25,8 @@ class Arc(Path):
 
     Args:
         T_start: start pose (4×4).
-        centre: a point on the axis [m] (3,); axis: axis direction (3,), normalised here.
+        centre: a point on the axis [m] (3,).
+        axis: axis direction (3,), normalised here.
         angle: swept angle [rad] (may be negative, |angle| ≤ 2π).
         orientation: ``"fixed"`` or ``"rotate"``.
         speed: maximum ṡ [m/s], as for `Line`.

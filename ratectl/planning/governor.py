@@ -77,8 +77,13 @@ class GovernorPlan:
     step k to step k+1.
 
     Attributes:
-        dt: control period [s]; t, s, sd, sdd: (K,) arrays; q: (K, n); qd_ff: (K, n)
-            (the last row is zero).
+        dt: control period [s].
+        t: (K,) times [s].
+        s: (K,) path parameter [m].
+        sd: (K,) ṡ [m/s].
+        sdd: (K,) s̈ [m/s²].
+        q: (K, n) planned joint positions.
+        qd_ff: (K, n) feed-forward joint velocities (the last row is zero).
         joint_path: the `JointPath` of step 1.
         x_limit: (N,) admissible ṡ² on the joint-path grid (after margins).
         nominal_duration: duration of the path's own time law [s].
@@ -127,8 +132,9 @@ class Governor:
             20 × its acceleration).
         lookahead: extra look-ahead time for the velocity cap [s] (default: 2 a/j, the
             time the jerk-limited progress needs to change its acceleration).
-        max_joint_step: joint-path integration step [rad]; sigma_tolerance: see
-            `joint_path`; nullspace_gain: joint centring for redundant arms [1/m].
+        max_joint_step: joint-path integration step [rad].
+        sigma_tolerance: see `joint_path`.
+        nullspace_gain: joint centring for redundant arms [1/m].
         check_fraction: accept the plan when the planned discrete motion stays below this
             fraction of every limit; otherwise shrink the margins (``max_iterations``).
         check_jerk: also require the planned joint jerk to stay below ``check_fraction·jmax``

@@ -24,7 +24,8 @@ class JointPath:
     Attributes:
         s: (N,) path parameters [m], increasing from 0.
         q: (N, n) joint positions with fk(q[k]) = P(s[k]) (to ~1e-10).
-        dq: (N, n) q'(s) = dq/ds [rad/m]; ddq: (N, n) q''(s) [rad/m²].
+        dq: (N, n) q'(s) = dq/ds [rad/m].
+        ddq: (N, n) q''(s) [rad/m²].
         sigma_min: (N,) smallest singular value of J along the path.
         complete: True when the whole path was integrated.
         message: why the integration stopped early ("" when complete).
@@ -92,9 +93,10 @@ def joint_path(chain, path, q0, *, max_joint_step: float = 0.004, max_step: floa
     """Integrate the joint path q(s) along ``path`` from ``q0`` (step 1 of the governor).
 
     Args:
-        chain: the arm; path: a `ratectl.paths.Path`; q0: joint positions at the start
-            (fk(q0) must be within ``pose_tolerance`` [m / rad] of the path start; it is
-            corrected onto it by Newton iterations).
+        chain: the arm.
+        path: a `ratectl.paths.Path`.
+        q0: joint positions at the start (fk(q0) must be within ``pose_tolerance``
+            [m / rad] of the path start; it is corrected onto it by Newton iterations).
         max_joint_step: largest joint change per integration step [rad].
         max_step: largest step in s [m] (default length/200).
         sigma_tolerance: stop where σ_min(J) drops below this (workspace boundary / singular).
