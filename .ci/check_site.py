@@ -34,6 +34,7 @@ import threading
 from pathlib import Path
 
 WIDTH, HEIGHT = 1280, 900
+FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--hide-scrollbars")
 PROBE = r"""
 <script>
 (function () {
@@ -131,7 +132,7 @@ def probe_pages(browser: str, root: str, site: Path, probes: list[str]) -> dict:
     driver.write_text(DRIVER % {"w": WIDTH, "h": HEIGHT, "pages": json.dumps(["/" + p for p in probes])},
                       encoding="utf-8")
     try:
-        res = subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+        res = subprocess.run([browser, *FLAGS,
                               f"--window-size={WIDTH + 40},{HEIGHT + 40}",
                               f"--virtual-time-budget={20000 * len(probes)}", "--dump-dom",
                               f"{root}/_check_driver.html"],
@@ -146,7 +147,7 @@ def probe_pages(browser: str, root: str, site: Path, probes: list[str]) -> dict:
 
 
 def screenshot(browser: str, url: str, shot: Path) -> None:
-    subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+    subprocess.run([browser, *FLAGS,
                     f"--window-size={WIDTH},{HEIGHT}", "--virtual-time-budget=5000",
                     f"--screenshot={shot}", url], capture_output=True, timeout=120)
 

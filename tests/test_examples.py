@@ -17,6 +17,12 @@ import pytest
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 SCRIPTS = sorted(p for p in EXAMPLES.glob("[0-9][0-9]_*.py"))
+#: What an example's summary must say (the documentation describes these outcomes).
+EXPECT = {
+    "07": ["follow (governor) of UR5e: completed", "max |p_sim − p_kin|"],
+    "08": ["without collision rows: min distance -", "COLLISION of link",
+           "with collision rows:    min distance +"],
+}
 
 
 def test_the_numbered_examples_exist():
@@ -44,6 +50,8 @@ def test_example_runs_and_draws(script):
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, f"{script.name} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}"
     assert proc.stdout.strip(), f"{script.name} printed no summary"
+    for words in EXPECT.get(script.name[:2], []):
+        assert words in proc.stdout, f"{script.name}: {words!r} not in its summary:\n{proc.stdout}"
     prefix = script.name[:3]                      # "NN_"
     pictures = [p for p in (EXAMPLES / "out").glob(prefix + "*")
                 if p.suffix.lower() in (".png", ".gif") and p.stat().st_mtime >= start - 1]

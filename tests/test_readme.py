@@ -25,3 +25,46 @@ def test_readme_example_runs(capsys):
 
 def test_readme_example_is_short():
     assert len(_python_blocks()[0].strip().splitlines()) <= 20
+
+
+ROOT = README.parent
+
+
+def test_readme_says_how_to_install_from_the_source_tree():
+    text = README.read_text(encoding="utf-8")
+    assert "not on a package index" in text and 'pip install -e ".[plot]"' in text
+    assert "a few seconds" not in text                      # measured: about 10 s
+    assert "velocity-scaled" in text.split("```python")[1].split("```")[1]   # explained after the example
+
+
+def test_no_mention_of_files_outside_the_repository():
+    pattern = re.compile(r"DESIGN\.md|DESIGN/|/work/|shared/DESIGN")
+    offenders = []
+    for folder, suffixes in (("docs", (".md",)), ("ratectl", (".py",)), ("examples", (".py",)),
+                             ("tests", (".py",)), ("benchmarks", (".py",))):
+        for p in (ROOT / folder).rglob("*"):
+            if p.suffix in suffixes and p.resolve() != Path(__file__).resolve():
+                for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1):
+                    if pattern.search(line):
+                        offenders.append(f"{p.relative_to(ROOT)}:{i}: {line.strip()}")
+    offenders += [f"README.md: {line}" for line in README.read_text(encoding="utf-8").splitlines()
+                  if pattern.search(line)]
+    assert not offenders, "\n".join(offenders)
+
+
+def test_docstrings_use_no_sphinx_roles():
+    """The API pages are rendered by mkdocstrings (Markdown): RST roles would show raw."""
+    role = re.compile(r":(?:py:)?(?:class|meth|func|mod|data|attr|exc|obj):`")
+    offenders = [f"{p.relative_to(ROOT)}:{i}" for p in (ROOT / "ratectl").rglob("*.py")
+                 for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1) if role.search(line)]
+    assert not offenders, offenders
+
+
+def test_docs_formulas_are_typeset_not_code():
+    """Theory pages write formulas as TeX ($...$), not Unicode inside code blocks."""
+    for page in sorted((ROOT / "docs" / "theory").glob("*.md")):
+        text = page.read_text(encoding="utf-8")
+        assert "$$" in text, page.name
+        indented = [line for line in text.splitlines()
+                    if line.startswith("    ") and any(c in line for c in "q̇σλξ‖ᵀ⁻Σ×")]
+        assert not indented, (page.name, indented[:3])

@@ -97,14 +97,19 @@ class MethodResult:
 
     Attributes:
         method: the method name (one of `METHODS`).
-        t: times (N,) [s]; q, qd, qdd: joint positions, velocities, accelerations (N, n).
+        t: times (N,) [s].
+        q: joint positions (N, n) [rad].
+        qd: joint velocities (N, n) [rad/s].
+        qdd: joint accelerations (N, n) [rad/s²], backward differences of qd.
         position_error: distance of the tool origin from the line (N,) [m].
         orientation_error: angle between the tool and the path orientation (N,) [rad].
         max_velocity_ratio: max over time and joints of |q̇_i|/vmax_i.
         max_acceleration_ratio: max over time and joints of |q̈_i|/amax_i.
-        max_position_error: [m]; max_orientation_error: [rad].
+        max_position_error: the largest position error [m].
+        max_orientation_error: the largest orientation error [rad].
         duration: time from which the tool stays at the end pose (within 1 mm and 0.1°),
-            or the last time if it never gets there [s]; nominal: the time law's duration [s].
+            or the last time if it never gets there [s].
+        nominal: the time law's duration [s].
         completed: the end pose was reached within 1 mm and 0.1°.
         note: what stopped or limited the method, if anything.
         wall_time: computing time of the run [s].
@@ -456,7 +461,8 @@ def plot_comparison(comparison: Comparison, path) -> str:
             matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise RatectlError("plotting needs matplotlib: pip install 'ratectl[plot]'") from exc
+        raise RatectlError("plotting needs matplotlib: pip install matplotlib (or, in ratectl's source tree, "
+                           "pip install -e '.[plot]')") from exc
     sc = comparison.scenario
     colours = dict(zip(METHODS, ["tab:red", "tab:orange", "tab:purple", "tab:blue", "tab:green"],
                        strict=True))

@@ -39,10 +39,12 @@ class Command:
         qd: commanded joint velocity (n,) [rad/s or m/s].
         q_next: joint positions after one period, q + q̇ dt (or the smoother's exact integral).
         qdd: joint acceleration of the command (n,): (q̇ − q̇_prev)/dt, or the smoother's.
-        status: one of `STATUSES`; flags: every status that applies this cycle.
+        status: one of `STATUSES`.
+        flags: every status that applies this cycle.
         reason: a sentence explaining a non-regular status ("" when regular).
         error: pose error e = [p_d − p; log(R_d Rᵀ)] (6,) (zeros without a target).
-        position_error: ‖p_d − p‖ [m]; orientation_error: ‖log(R_d Rᵀ)‖ [rad].
+        position_error: ‖p_d − p‖ [m].
+        orientation_error: ‖log(R_d Rᵀ)‖ [rad].
         twist: the twist ξ = ξ_ff + K e that was resolved (6,).
         sigma_min: σ_min(J) of the unscaled Jacobian (mixed units) at the cycle's q, as reported by
             the solver (NaN if it does not compute it): the same quantity as
@@ -51,7 +53,8 @@ class Command:
         task_error: ξ − J q̇_solver, what the solver gave up (6,).
         velocity_scale: uniform factor applied for vmax (1 = none).
         limits_active: kinds of limit that bound: subset of ("velocity", "acceleration", "position").
-        time: controller clock at the start of the cycle [s]; dt: the period [s].
+        time: controller clock at the start of the cycle [s].
+        dt: the period [s].
         solve: the solver's full `SolveResult` (None when halted).
         kind: (lazy) the singularity kind at q from `ratectl.analyze`, computed on first
             access only (it costs an SVD); None when unavailable.

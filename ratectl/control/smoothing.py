@@ -50,7 +50,11 @@ class VelocityFilter:
     acceleration.
 
     Args:
-        dof: number of joints; dt: period [s]; vmax, amax, jmax: (n,) or scalar limits.
+        dof: number of joints.
+        dt: period [s].
+        vmax: (n,) or scalar velocity limits.
+        amax: (n,) or scalar acceleration limits.
+        jmax: (n,) or scalar jerk limits.
     """
 
     def __init__(self, dof: int, *, dt: float, vmax, amax, jmax) -> None:
@@ -246,8 +250,13 @@ def move(q_start, q_goal, *, vmax, amax, jmax, qd_start=None, qdd_start=None) ->
     interface, one segment — never intermediate waypoints).
 
     Args:
-        q_start, q_goal: (n,) joint positions; qd_start, qdd_start: initial velocity and
-            acceleration (default rest); vmax, amax, jmax: (n,) or scalar limits.
+        q_start: (n,) start joint positions.
+        q_goal: (n,) goal joint positions (reached at rest).
+        vmax: (n,) or scalar velocity limits.
+        amax: (n,) or scalar acceleration limits.
+        jmax: (n,) or scalar jerk limits.
+        qd_start: initial velocity (default rest).
+        qdd_start: initial acceleration (default rest).
     """
     import ruckig
 

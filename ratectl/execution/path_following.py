@@ -38,7 +38,9 @@ def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle
     """Follow ``path`` with ``chain`` from joint positions ``q0``; returns an `Execution`.
 
     Args:
-        chain: the arm. path: a `ratectl.paths.Path`. q0: (n,) start configuration.
+        chain: the arm.
+        path: a `ratectl.paths.Path`.
+        q0: (n,) start configuration.
         dt: control period [s].
         controller: a `ResolvedRateController` (default: a new one with
             the default solver, the chain's limits and no smoothing). It is reset first.

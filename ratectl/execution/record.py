@@ -26,11 +26,14 @@ class Execution:
 
     Attributes (arrays over K recorded steps):
         t: (K,) times [s].
-        q, qd, qdd: (K, n) joint positions, velocities [rad/s or m/s], accelerations.
+        q: (K, n) joint positions [rad or m].
+        qd: (K, n) joint velocities [rad/s or m/s].
+        qdd: (K, n) joint accelerations [rad/s² or m/s²].
         poses: (K, 4, 4) tool poses fk(q), or None.
         position_error: (K,) distance of the tool origin from the *path* (nearest point
-            of the curve) [m]; orientation_error: (K,) angle between the tool orientation
-            and the path's orientation at that point [rad].
+            of the curve) [m].
+        orientation_error: (K,) angle between the tool orientation and the path's
+            orientation at that point [rad].
         tracking_error: (K,) distance from the *reference* pose of the same step [m] (how
             far behind or ahead of the schedule), or None.
         statuses: (K,) controller status per step (see ``ratectl.controller.STATUSES``).
@@ -39,12 +42,16 @@ class Execution:
         sigma_min: (K,) σ_min(J) per step (NaN where unknown).
         s: (K,) path parameter of the reference per step [m], or None.
         nominal_duration: duration of the path's own time law [s].
-        duration: duration of the execution [s] (``t[-1] − t[0]``).
+        duration: duration of the execution [s]: for ``follow``, the time from which the
+            end pose stays within tolerance (not the settle wait after it), else
+            ``t[-1] − t[0]``.
         completed: the motion reached the end of the path within tolerance.
         message: a one-line account (why it did not complete, how much longer it took).
         source: who produced it ("follow", "simulate", ...).
-        chain_name: the arm's name; joint_names: its joint names.
-        vmax, amax: (n,) joint limits used for checks and plots, or None.
+        chain_name: the arm's name.
+        joint_names: its joint names.
+        vmax: (n,) velocity limits used for checks and plots, or None.
+        amax: (n,) acceleration limits used for checks and plots, or None.
         info: further numbers (e.g. the governor plan, solver names).
 
     Attributes of a run on a robot (`ratectl.run`; None or defaults elsewhere):

@@ -31,7 +31,8 @@ class Limits:
     """Joint limits in SI units; ±inf where absent. Shapes (n,).
 
     Attributes:
-        lower, upper: position limits [rad or m].
+        lower: lower position limits [rad or m].
+        upper: upper position limits [rad or m].
         vmax: velocity limits (magnitudes) [rad/s or m/s].
         amax: acceleration limits (magnitudes) [rad/s² or m/s²].
     """

@@ -25,10 +25,15 @@ class Arc(Path):
 
     Args:
         T_start: start pose (4×4).
-        centre: a point on the axis [m] (3,); axis: axis direction (3,), normalised here.
+        centre: a point on the axis [m] (3,).
+        axis: axis direction (3,), normalised here.
         angle: swept angle [rad] (may be negative, |angle| ≤ 2π).
         orientation: ``"fixed"`` or ``"rotate"``.
-        speed, acceleration, jerk, law, rotation_length: as for `Line`.
+        speed: maximum ṡ [m/s], as for `Line`.
+        acceleration: maximum |s̈| [m/s²], as for `Line`.
+        jerk: optional jerk limit [m/s³], as for `Line`.
+        law: time law, as for `Line`.
+        rotation_length: ρ [m/rad], as for `Line`.
     """
 
     def __init__(self, T_start, *, centre, axis, angle: float, orientation: str = "fixed",

@@ -21,8 +21,11 @@ class Line(Path):
     ``L = √(‖p₁ − p₀‖² + (ρθ)²)``.
 
     Args:
-        T_start, T_end: start and end poses.
-        speed: maximum ṡ [m/s]; acceleration: maximum |s̈| [m/s²]; jerk: optional [m/s³].
+        T_start: start pose (4×4).
+        T_end: end pose (4×4).
+        speed: maximum ṡ [m/s].
+        acceleration: maximum |s̈| [m/s²].
+        jerk: optional jerk limit [m/s³].
         law: time law (default trapezoidal, jerk-limited if ``jerk`` is given).
         rotation_length: ρ [m/rad] (see the module docstring).
     """

@@ -19,7 +19,8 @@ class TimeLaw:
     """Maps time to progress: ``s(t), ṡ(t), s̈(t)`` on ``[0, duration]``, at rest at both ends.
 
     Attributes:
-        length: path length L [m]; duration: T [s].
+        length: path length L [m].
+        duration: T [s].
     """
 
     name = "base"

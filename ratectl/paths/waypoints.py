@@ -36,7 +36,11 @@ class Waypoints(Path):
     Args:
         poses: N ≥ 2 poses (N, 4, 4).
         blend: blend half-length d [m].
-        speed, acceleration, jerk, law, rotation_length: as for `Line`.
+        speed: maximum ṡ [m/s], as for `Line`.
+        acceleration: maximum |s̈| [m/s²], as for `Line`.
+        jerk: optional jerk limit [m/s³], as for `Line`.
+        law: time law, as for `Line`.
+        rotation_length: ρ [m/rad], as for `Line`.
     """
 
     def __init__(self, poses, *, blend: float = 0.02, speed: float, acceleration: float,

@@ -333,9 +333,10 @@ def joint_path(chain, path, q0, *, max_joint_step: float = 0.004, max_step: floa
     """Integrate the joint path q(s) along ``path`` from ``q0`` (see the module docstring).
 
     Args:
-        chain: the arm; path: a `ratectl.paths.Path`; q0: joint positions at the start
-            (fk(q0) must be within ``pose_tolerance`` [m / rad] of the path start; it is
-            corrected onto it by Newton iterations).
+        chain: the arm.
+        path: a `ratectl.paths.Path`.
+        q0: joint positions at the start (fk(q0) must be within ``pose_tolerance``
+            [m / rad] of the path start; it is corrected onto it by Newton iterations).
         max_joint_step: largest joint change per integration step [rad].
         max_step: largest step in s [m] (default length/200).
         sigma_tolerance: ignored (kept for compatibility): feasibility is decided from the

@@ -121,7 +121,9 @@ def classify(chain, q=None, *, J=None, length: float | None = None, near: float 
         chain: the robot model.
         q: joint positions (n,); not needed when ``J`` is given.
         J: the Jacobian (6, n) at q (base axes, tool origin) if already computed.
-        length, near, factor_tol: as in `analyze`.
+        length: characteristic length [m], as in `analyze`.
+        near: near-singularity threshold, as in `analyze`.
+        factor_tol: geometric-factor tolerance, as in `analyze`.
     """
     if J is None:
         if q is None:

@@ -141,7 +141,7 @@ def workspace_map(chain, *, joints: tuple[int, int] | None = None, plane: str | 
 
 def plot_workspace_map(wmap: WorkspaceMap, *, ax=None, cmap: str = "viridis", colorbar: bool = True,
                        show_kinds: bool = True):
-    """Plot a `WorkspaceMap` with matplotlib (imported here; ``pip install ratectl[plot]``).
+    """Plot a `WorkspaceMap` with matplotlib (imported here; ``pip install matplotlib``).
 
     In joints mode with ``show_kinds``, the near-singular grid points are outlined by
     kind (white contours labelled wrist/elbow/shoulder/...). Returns the Axes.
@@ -149,7 +149,7 @@ def plot_workspace_map(wmap: WorkspaceMap, *, ax=None, cmap: str = "viridis", co
     try:
         import matplotlib.pyplot as plt
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ImportError("plot_workspace_map needs matplotlib: pip install 'ratectl[plot]'") from exc
+        raise ImportError("plot_workspace_map needs matplotlib: pip install matplotlib") from exc
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 5))
     mesh = ax.pcolormesh(wmap.x, wmap.y, wmap.values, cmap=cmap, shading="nearest")

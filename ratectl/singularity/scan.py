@@ -79,7 +79,10 @@ def scan(chain, qs, *, length: float | None = None, rtol: float = DEFAULT_RTOL,
     Args:
         chain: the robot model.
         qs: joint positions (..., n).
-        length, rtol, near, factor_tol: as in `analyze`.
+        length: characteristic length [m], as in `analyze`.
+        rtol: rank tolerance, as in `analyze`.
+        near: near-singularity threshold, as in `analyze`.
+        factor_tol: geometric-factor tolerance, as in `analyze`.
         raw: also compute the singular values and condition number of the raw J (one
             more batched SVD).
 

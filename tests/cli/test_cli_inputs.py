@@ -194,3 +194,19 @@ def test_internal_errors_are_one_line(monkeypatch):
     assert code == 1
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert "internal error: ZeroDivisionError" in err
+
+
+# ---------------------------------------------------------------------------- consistent reports
+def test_exactly_singular_has_no_distance_estimate():
+    code, out, err = run(["singularity", "ur5e", "--q", "zero"])
+    assert code == 0, err
+    assert "exactly singular" in out
+    assert "distance to the singular set" not in out
+
+
+def test_stretched_planar_arm_is_not_regular():
+    code, out, _ = run(["singularity", "planar2r", "--q", "0.3", "0"])
+    assert code == 0
+    assert "kind: boundary" in out and "stretched or folded" in out
+    code, out, _ = run(["singularity", "planar2r", "--q", "0.3", "1.0"])
+    assert "kind: regular" in out

@@ -15,7 +15,7 @@
   `render_frames` renders configurations offscreen; `MujocoDriver` is a
   MuJoCo model behind the `ratectl.drivers.Driver` protocol, for `ratectl.run`.
 
-``mujoco`` and ``mink`` (the ``ratectl[mujoco]`` extra) are imported here only;
+``mujoco`` and ``mink`` (the ``mujoco`` extra: ``pip install -e ".[mujoco]"``) are imported here only;
 the rest of ratectl never needs them.
 
 Conventions (ratectl's): Jacobian rows ``[v; ω]`` in world axes with the linear part

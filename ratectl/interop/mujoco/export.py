@@ -98,7 +98,8 @@ def to_mjcf(chain: Chain, *, name: str | None = None, radius: float = 0.03,
             ``{"name": "ball", "type": "sphere", "size": 0.05, "pos": (0.4, 0, 0.3)}``;
             they collide with the links (contype/conaffinity 1 unless given).
         density: link density [kg/m³] (masses come from the geoms).
-        link_contype, link_conaffinity: collision bits of the link geoms.
+        link_contype: collision type bits of the link geoms.
+        link_conaffinity: collision affinity bits of the link geoms.
         floor: add a visual-only floor plane at z = 0 (for rendering; it collides with
             nothing).
 

@@ -217,14 +217,16 @@ def simulate(model_or_xml, chain: Chain, path_or_targets, q0, *, dt: float, cont
         controller: anything with ``step(q, *, target, twist, dt)`` returning a command
             with ``qd``, ``q`` and ``status`` (default ``ResolvedRateController(chain)``).
         actuation: ``"position"`` or ``"velocity"``.
-        frame, frame_type: the tool site (or body) in the model.
+        frame: the tool site (or body) in the model.
+        frame_type: ``"site"`` or ``"body"``, the kind of ``frame``.
         duration: run time [s]; default the path duration + ``settle``, or 10 s for targets
             (a run on targets ends when the last one is reached).
         settle: extra time after the path's end [s].
         physics: False for the kinematic reference run (no MuJoCo stepping).
         distance_pairs: optional geom pairs ``[(geom1, geom2), ...]`` whose smallest
             distance is recorded every step (``log.min_distance`` [m]).
-        position_tolerance, orientation_tolerance: target-reached tolerances [m], [rad].
+        position_tolerance: target-reached tolerance on the position [m].
+        orientation_tolerance: target-reached tolerance on the orientation [rad].
         on_step: optional callback ``on_step(k, model, data)`` after every period
             (e.g. to grab rendered frames).
 

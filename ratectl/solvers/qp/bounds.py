@@ -34,9 +34,11 @@ class VelocityBounds:
     """Per-joint velocity box for one step (see `joint_velocity_bounds`).
 
     Attributes:
-        lower, upper: (n,) bounds on q̇ [rad/s or m/s].
-        source_lower, source_upper: (n,) int codes of the limit that sets each bound
+        lower: (n,) lower bounds on q̇ [rad/s or m/s].
+        upper: (n,) upper bounds on q̇ [rad/s or m/s].
+        source_lower: (n,) int codes of the limit that sets each lower bound
             (0 none, 1 velocity, 2 position, 3 acceleration).
+        source_upper: (n,) the same for the upper bounds.
         conflicts: tuple of (joint, kinds) where bounds conflicted and were resolved by
             priority (velocity > position > acceleration).
     """

@@ -49,7 +49,8 @@ class QP(Solver):
         backend: ``"osqp"`` (default, kept warm across calls) or any solver name of
             `qpsolvers.solve_qp` (``"daqp"``, ``"quadprog"``, ``"proxqp"``, …).
         margin: distance kept from the position limits [rad or m].
-        task_weights, joint_weights: as for the other solvers (W_x, W_q).
+        task_weights: as for the other solvers (W_x).
+        joint_weights: as for the other solvers (W_q).
         objective: optional secondary objective (``"centring"``, ``"manipulability"``
             with ``chain``, or a callable q -> desired q̇), added as ½μ‖q̇ − k·z(q)‖²;
             needs ``q=`` in `solve`.
