@@ -4,15 +4,23 @@ Returned by `ratectl.follow` (kinematic path following), by `ratectl.run`
 (a real-time loop on a robot) and by the MuJoCo simulation; generic on purpose — arrays
 over the K recorded steps plus metadata — so any producer can fill it. Arrays that a
 producer does not have are ``None``. The record is frozen: fields are set once, by
-keyword, and its arrays are read-only.
+keyword, its arrays are read-only and ``info`` is a read-only mapping (nested mappings too;
+lists in it become tuples, arrays in it read-only).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from types import MappingProxyType
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["Execution"]
 
@@ -52,7 +60,7 @@ class Execution:
         joint_names: its joint names.
         vmax: (n,) velocity limits used for checks and plots, or None.
         amax: (n,) acceleration limits used for checks and plots, or None.
-        info: further numbers (e.g. the governor plan, solver names).
+        info: further numbers (e.g. the governor plan, solver names); a read-only mapping.
 
     Attributes of a run on a robot (`ratectl.run`; None or defaults elsewhere):
         q_measured, qd_measured: (K, n) joint positions and velocities as the robot measured
@@ -76,7 +84,7 @@ class Execution:
     orientation_error: np.ndarray | None = None
     tracking_error: np.ndarray | None = None
     statuses: tuple[str, ...] = ()
-    kinds: tuple | None = None
+    kinds: tuple[str | None, ...] | None = None
     sigma_min: np.ndarray | None = None
     s: np.ndarray | None = None
     nominal_duration: float = float("nan")
@@ -88,7 +96,7 @@ class Execution:
     joint_names: tuple[str, ...] = ()
     vmax: np.ndarray | None = None
     amax: np.ndarray | None = None
-    info: dict = field(default_factory=dict)
+    info: Mapping[str, Any] = field(default_factory=lambda: _EMPTY)
     q_measured: np.ndarray | None = None
     qd_measured: np.ndarray | None = None
     stamps: np.ndarray | None = None
@@ -109,6 +117,13 @@ class Execution:
                 a = a.copy()
             a.setflags(write=False)
             object.__setattr__(self, name, a)
+        object.__setattr__(self, "info", _frozen(self.info) if self.info else _EMPTY)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # a mappingproxy cannot be pickled: the record travels with plain dicts and is frozen again
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        values["info"] = _thawed(self.info)
+        return _restore_execution, (values,)
 
     # ------------------------------------------------------------------ summaries
     @property
@@ -216,7 +231,9 @@ class Execution:
                 f"duration={self.duration:.4g} s)")
 
     # ------------------------------------------------------------------ plot
-    def plot(self, *, file=None, title: str | None = None):
+    def plot(
+        self, *, file: str | os.PathLike[str] | IO[bytes] | None = None, title: str | None = None
+    ) -> Figure:
         """Joint velocities (with ±vmax), path errors and σ_min against time.
 
         matplotlib is imported here (optional dependency). Returns the figure; with
@@ -236,7 +253,7 @@ class Execution:
         ax.set_ylabel("q̇ [rad/s]")
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # beside
         ax = axes[1]
-        if self.position_error is not None:
+        if self.position_error is not None and self.orientation_error is not None:
             ax.plot(self.t, self.position_error * 1e3, color="C0", label="position [mm]")
             ax.set_ylabel("path error [mm]")
             ax2 = ax.twinx()
@@ -255,3 +272,32 @@ class Execution:
         if file is not None:
             fig.savefig(file, dpi=110)
         return fig
+
+
+_EMPTY: Mapping[str, Any] = MappingProxyType({})
+
+
+def _frozen(value: Any) -> Any:
+    """``value`` made read-only, recursively: a mapping → a read-only mapping, a list → a tuple,
+    an array → a read-only array (copied first when the caller can still write to it)."""
+    if isinstance(value, Mapping):
+        return MappingProxyType({k: _frozen(v) for k, v in value.items()})
+    if isinstance(value, (list, tuple)) and type(value) in (list, tuple):
+        return tuple(_frozen(v) for v in value)
+    if isinstance(value, np.ndarray) and value.flags.writeable:
+        value = value.copy()
+        value.setflags(write=False)
+    return value
+
+
+def _thawed(value: Any) -> Any:
+    """The inverse of `_frozen` for pickling: read-only mappings → dicts."""
+    if isinstance(value, Mapping):
+        return {k: _thawed(v) for k, v in value.items()}
+    if type(value) is tuple:
+        return tuple(_thawed(v) for v in value)
+    return value
+
+
+def _restore_execution(values: dict[str, Any]) -> Execution:
+    return Execution(**values)

@@ -42,12 +42,16 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from typing import cast
+from dataclasses import dataclass
+from typing import TextIO
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from ..control import ResolvedRateController
+from ..control import Command, ResolvedRateController
+from ..drivers.base import Driver, RobotState
 from ..errors import DriverError, InputError
+from ..model import Chain
 from ..paths import Path
 from ..spatial import pose_error
 from .record import Execution
@@ -55,9 +59,11 @@ from .record import Execution
 __all__ = ["run"]
 
 _END_SPEED = 1e-3  # |q̇| [rad/s] below which a halted command counts as "at rest"
+_TIMING = ("read", "control", "command", "work")  # per-cycle work times recorded [s]
 
 
-def _check_driver(driver) -> None:
+# ---------------------------------------------------------------------- validation and set-up
+def _check_driver(driver: object) -> None:
     missing = [m for m in ("read", "command", "stop") if not callable(getattr(driver, m, None))]
     if missing or not hasattr(driver, "chain"):
         raise InputError(
@@ -68,11 +74,9 @@ def _check_driver(driver) -> None:
         )
 
 
-def _positive(name: str, value, *, allow_none: bool = False):
-    if value is None and allow_none:
-        return None
+def _positive(name: str, value: object) -> float:
     try:
-        v = float(value)
+        v = float(value)  # type: ignore[arg-type]  # anything float() accepts; the rest is reported
     except (TypeError, ValueError):
         raise InputError(
             f"{name} must be a positive number, got {value!r}", argument=name, value=value
@@ -84,9 +88,9 @@ def _positive(name: str, value, *, allow_none: bool = False):
     return v
 
 
-def _is_tty(stream) -> bool:
+def _is_tty(stream: object) -> bool:
     try:
-        return bool(stream.isatty())
+        return bool(stream.isatty())  # type: ignore[attr-defined]  # any stream; no isatty → False
     except (AttributeError, ValueError, OSError):
         return False
 
@@ -94,7 +98,7 @@ def _is_tty(stream) -> bool:
 class _StatusLine:
     """A one-line live report on stderr, rewritten in place at most every 0.25 s."""
 
-    def __init__(self, enabled: bool, stream=None) -> None:
+    def __init__(self, enabled: bool, stream: TextIO | None = None) -> None:
         self.enabled = enabled
         self.stream = stream if stream is not None else sys.stderr
         self.next = 0.0
@@ -113,13 +117,157 @@ class _StatusLine:
             self.stream.flush()
 
 
+@dataclass(eq=False)
+class _Reference:
+    """The reference of a run: what the controller is given at robot time t, and when it ends.
+
+    ``mode`` is "path", "target" or "twist". `at` moves ``Td`` (the target pose, None for a
+    twist stream) and ``s`` (the path parameter [m]) to time t and returns the feed-forward
+    twist ξ(t) [v; ω] (None: no twist, or the stream ended).
+    """
+
+    mode: str
+    limit: float  # the longest the run may last [s] (robot time)
+    path: Path | None = None
+    target: np.ndarray | None = None  # a fixed target pose (4, 4)
+    twist: np.ndarray | None = None  # a fixed twist (6,)
+    twist_fn: Callable[[float], ArrayLike | None] | None = None
+    Td: np.ndarray | None = None  # the current target pose
+    s: float = 0.0  # the current path parameter [m]
+    settle_start: float | None = None  # robot time the path's end was reached [s]
+
+    def __post_init__(self) -> None:
+        self.Td = self.target
+
+    @property
+    def on_end_pose(self) -> bool:
+        """True when "within tolerance of the end pose" ends the run (a target, a settled path)."""
+        return self.mode == "target" or (self.mode == "path" and self.settle_start is not None)
+
+    def at(self, t: float) -> np.ndarray | None:
+        path = self.path
+        if path is not None:
+            if t <= path.duration:
+                self.s, sd, _ = path.progress(t)
+                self.Td = path.pose_at(self.s)
+                return path.twist_at(self.s, sd=sd)
+            self.s = path.length
+            self.Td = path.end
+            if self.settle_start is None:
+                self.settle_start = t
+            return None
+        if self.mode == "twist":
+            xi = self.twist if self.twist_fn is None else self.twist_fn(t)
+            return None if xi is None else np.asarray(xi, dtype=float)
+        return None
+
+
+def _one_reference(path: object, target: object, twist: object) -> None:
+    given = [name for name, v in (("path", path), ("target", target), ("twist", twist)) if v is not None]
+    if len(given) != 1:
+        raise InputError(
+            f"give exactly one of path=, target=, twist= (got {given or 'none'})",
+            argument="path",
+            value=given,
+        )
+
+
+def _reference(
+    path: Path | None, target: ArrayLike | None, twist: object, duration: float | None, settle: float
+) -> _Reference:
+    """The one given reference, checked, with its time limit [s]: ``duration``, or by default the
+    path's duration + ``settle``, 10 s for a target, unbounded for a twist stream."""
+    if path is not None:
+        if not isinstance(path, Path):
+            raise InputError(
+                f"path must be a ratectl.paths.Path, got {type(path).__name__}", argument="path", value=path
+            )
+        return _Reference("path", path.duration + settle if duration is None else duration, path=path)
+    if target is not None:
+        Td = np.asarray(target, dtype=float)
+        if Td.shape != (4, 4) or not np.all(np.isfinite(Td)):
+            raise InputError("target must be a finite 4x4 pose", argument="target", value=target)
+        return _Reference("target", 10.0 if duration is None else duration, target=Td)
+    limit = math.inf if duration is None else duration
+    if callable(twist):
+        return _Reference("twist", limit, twist_fn=twist)
+    xi = np.asarray(twist, dtype=float)
+    if xi.shape != (6,) or not np.all(np.isfinite(xi)):
+        raise InputError(
+            "twist must be a finite 6-vector [v; ω] or a callable twist(t)", argument="twist", value=twist
+        )
+    return _Reference("twist", limit, twist=xi)
+
+
+def _first_state(driver: Driver, ref: _Reference) -> RobotState:
+    """The robot's state before anything moves; a path must start at its tool pose."""
+    chain, name = driver.chain, type(driver).__name__
+    try:
+        state0 = driver.read()
+    except Exception as exc:
+        raise DriverError(
+            f"the first read() of {name} failed: {type(exc).__name__}: {exc}", driver=name, cause=exc
+        ) from exc
+    if not state0.finite or state0.q.shape != (chain.dof,):
+        raise DriverError(
+            f"the first state of {name} is unusable (shape {state0.q.shape}, "
+            f"finite {state0.finite}); expected {chain.dof} finite joint values",
+            driver=name,
+        )
+    if ref.path is not None:
+        e0 = pose_error(ref.path.start, chain.fk(state0.q))
+        if np.linalg.norm(e0[:3]) > 1e-3 or np.linalg.norm(e0[3:]) > 1e-2:
+            raise InputError(
+                f"the path starts {np.linalg.norm(e0[:3]) * 1e3:.3g} mm / "
+                f"{math.degrees(np.linalg.norm(e0[3:])):.3g}° from the robot's tool pose; servo "
+                "there first with rc.run(driver, target=path.start)",
+                argument="path",
+                value=ref.path,
+            )
+    return state0
+
+
+def _controller(controller: ResolvedRateController | None, chain: Chain) -> ResolvedRateController:
+    """The controller for ``chain`` (a new one by default), reset."""
+    ctrl = controller if controller is not None else ResolvedRateController(chain)
+    if getattr(ctrl, "chain", chain).dof != chain.dof:
+        raise InputError(
+            f"the controller was built for a {ctrl.chain.dof}-joint arm, the driver has {chain.dof}",
+            argument="controller",
+            value=controller,
+        )
+    ctrl.reset()
+    return ctrl
+
+
+def _warm_up(
+    ctrl: ResolvedRateController,
+    ref: _Reference,
+    state0: RobotState,
+    period: float,
+    given: ResolvedRateController | None,
+) -> None:
+    """One controller step on the first state, then a reset: first-call costs (generated kernels,
+    caches) must not land in the first period."""
+    try:
+        ctrl.step(state0.q, target=ref.target if ref.path is None else ref.path.start, dt=period)
+    except Exception as exc:
+        raise InputError(
+            f"the controller cannot step on the first state: {type(exc).__name__}: {exc}",
+            argument="controller",
+            value=given,
+        ) from exc
+    ctrl.reset()
+
+
+# ---------------------------------------------------------------------- run
 def run(
-    driver,
+    driver: Driver,
     *,
     path: Path | None = None,
-    target=None,
-    twist=None,
-    controller=None,
+    target: ArrayLike | None = None,
+    twist: ArrayLike | Callable[[float], ArrayLike | None] | None = None,
+    controller: ResolvedRateController | None = None,
     rate_hz: float = 500.0,
     duration: float | None = None,
     timeout: float = 0.1,
@@ -172,17 +320,10 @@ def run(
     """
     _check_driver(driver)
     chain = driver.chain
-    n = chain.dof
-    given = [name for name, v in (("path", path), ("target", target), ("twist", twist)) if v is not None]
-    if len(given) != 1:
-        raise InputError(
-            f"give exactly one of path=, target=, twist= (got {given or 'none'})",
-            argument="path",
-            value=given,
-        )
+    _one_reference(path, target, twist)
     rate_hz = _positive("rate_hz", rate_hz)
     timeout = _positive("timeout", timeout)
-    duration = _positive("duration", duration, allow_none=True)
+    duration = None if duration is None else _positive("duration", duration)
     settle = float(settle)
     if not (settle >= 0.0 and math.isfinite(settle)):
         raise InputError(
@@ -196,442 +337,359 @@ def run(
         )
     pos_tol, ori_tol = (float(v) for v in tolerance)
     period = 1.0 / rate_hz
-
-    mode = given[0]
-    path = cast(Path, path)  # used only in mode "path", where it was given
-    Td_fixed = None
-    xi_fixed = None
-    twist_fn: Callable | None = None
-    if mode == "path":
-        if not isinstance(path, Path):
-            raise InputError(
-                f"path must be a ratectl.paths.Path, got {type(path).__name__}", argument="path", value=path
-            )
-        limit = path.duration + settle if duration is None else duration
-    elif mode == "target":
-        Td_fixed = np.asarray(target, dtype=float)
-        if Td_fixed.shape != (4, 4) or not np.all(np.isfinite(Td_fixed)):
-            raise InputError("target must be a finite 4x4 pose", argument="target", value=target)
-        limit = 10.0 if duration is None else duration
-    else:
-        if callable(twist):
-            twist_fn = twist
-        else:
-            xi_fixed = np.asarray(twist, dtype=float)
-            if xi_fixed.shape != (6,) or not np.all(np.isfinite(xi_fixed)):
-                raise InputError(
-                    "twist must be a finite 6-vector [v; ω] or a callable twist(t)",
-                    argument="twist",
-                    value=twist,
-                )
-        limit = math.inf if duration is None else duration
-
-    ctrl = controller if controller is not None else ResolvedRateController(chain)
-    if getattr(ctrl, "chain", chain).dof != n:
-        raise InputError(
-            f"the controller was built for a {ctrl.chain.dof}-joint arm, the driver has {n}",
-            argument="controller",
-            value=controller,
-        )
-    ctrl.reset()
-
-    # --- the first state (nothing moves yet)
-    try:
-        state0 = driver.read()
-    except Exception as exc:
-        raise DriverError(
-            f"the first read() of {type(driver).__name__} failed: {type(exc).__name__}: {exc}",
-            driver=type(driver).__name__,
-            cause=exc,
-        ) from exc
-    if not state0.finite or state0.q.shape != (n,):
-        raise DriverError(
-            f"the first state of {type(driver).__name__} is unusable (shape {state0.q.shape}, "
-            f"finite {state0.finite}); expected {n} finite joint values",
-            driver=type(driver).__name__,
-        )
-    if mode == "path":
-        e0 = pose_error(path.start, chain.fk(state0.q))
-        if np.linalg.norm(e0[:3]) > 1e-3 or np.linalg.norm(e0[3:]) > 1e-2:
-            raise InputError(
-                f"the path starts {np.linalg.norm(e0[:3]) * 1e3:.3g} mm / "
-                f"{math.degrees(np.linalg.norm(e0[3:])):.3g}° from the robot's tool pose; servo "
-                "there first with rc.run(driver, target=path.start)",
-                argument="path",
-                value=path,
-            )
-
-    # warm-up: one controller step on the first state, then reset — first-call costs (generated
-    # kernels, caches) must not land in the first period
-    try:
-        ctrl.step(
-            state0.q,
-            target=Td_fixed if Td_fixed is not None else (path.start if mode == "path" else None),
-            dt=period,
-        )
-    except Exception as exc:
-        raise InputError(
-            f"the controller cannot step on the first state: {type(exc).__name__}: {exc}",
-            argument="controller",
-            value=controller,
-        ) from exc
-    ctrl.reset()
-
-    show = status_line if status_line is not None else (_is_tty(sys.stderr) and limit > 2.0)
-    line = _StatusLine(bool(show))
-
-    # --- the loop
-    T_stamp: list[float] = []
-    Q: list[np.ndarray] = []
-    QDm: list[np.ndarray] = []
-    QD: list[np.ndarray] = []
-    QDD: list[np.ndarray] = []
-    ST: list[str] = []
-    SIG: list[float] = []
-    TD: list[np.ndarray | None] = []
-    S: list[float] = []
-    FRESH: list[bool] = []
-    PER: list[float] = []
-    trace = (T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH)  # one entry per recorded cycle
-    TM = []  # (read, control, command, work) per cycle [s]
-    stamp0 = state0.stamp
-    last_stamp = -math.inf
-    last_fresh_wall = time.perf_counter()
-    zero = np.zeros(n)
-    zero.setflags(write=False)  # shared by every cycle that records "no command"
-    qd_cmd = zero
-    status = "regular"
-    sigma = math.nan
-    Td = Td_fixed
-    s_now = 0.0
-    reason = ""
-    outcome = ""  # "completed", "halted", "interrupted", "timeout" (duration), "" while running
-    halting = ""  # the reason of a controller halt being decelerated
-    halt_delay = math.nan
-    interrupted: KeyboardInterrupt | None = None
-    overruns = 0
-    phase_settle_start = None
-    stop_error = ""
-    t0 = time.perf_counter()
-    deadline = t0
-    prev_start = t0 - period
-    state = state0
-    try:
-        while True:
-            start = time.perf_counter()
-            PER.append(start - prev_start)
-            prev_start = start
-            # 1. read
-            try:
-                state = driver.read()
-            except Exception as exc:
-                reason = f"driver read() failed: {type(exc).__name__}: {exc}"
-                outcome = "halted"
-                PER.pop()
-                break
-            t_read = time.perf_counter()
-            fresh = state.stamp > last_stamp
-            if fresh:
-                last_stamp = state.stamp
-                last_fresh_wall = start
-            elif start - last_fresh_wall > timeout:
-                halt_delay = start - last_fresh_wall
-                reason = (
-                    f"watchdog: no fresh state for {halt_delay * 1e3:.1f} ms (timeout "
-                    f"{timeout * 1e3:.1f} ms); last stamp {state.stamp:.6g} s"
-                )
-                outcome = "halted"
-                _record(trace, state, zero, zero, "halted", sigma, Td, s_now, False)
-                TM.append((t_read - start, 0.0, 0.0, time.perf_counter() - start))
-                break
-            t = state.stamp - stamp0
-            qdd_cmd = zero
-            t_ctrl = t_read
-            if fresh:
-                # 2. reference
-                xi = None
-                try:
-                    if mode == "path":
-                        if t <= path.duration:
-                            s_now, sd, _ = path.progress(t)
-                            Td = path.pose_at(s_now)
-                            xi = path.twist_at(s_now, sd=sd)
-                        else:
-                            s_now = path.length
-                            Td = path.end
-                            if phase_settle_start is None:
-                                phase_settle_start = t
-                    elif mode == "twist":
-                        xi = xi_fixed if twist_fn is None else twist_fn(t)
-                        if xi is not None:
-                            xi = np.asarray(xi, dtype=float)
-                except Exception as exc:
-                    reason = f"the reference raised {type(exc).__name__}: {exc}"
-                    outcome = "halted"
-                    PER.pop()
-                    break
-                if mode == "twist" and xi is None and not halting:
-                    reason = "the twist stream ended"
-                    outcome = "completed"
-                    PER.pop()
-                    break
-                # 3. control (a non-finite measurement latches the controller's safe halt)
-                q_in = state.q if state.finite else np.full(n, math.nan)
-                if not state.finite and not halting:
-                    halting = (
-                        f"non-finite measured state at t = {t:.4g} s "
-                        f"({'q' if not np.all(np.isfinite(state.q)) else 'q̇ or stamp'})"
-                    )
-                try:
-                    cmd = ctrl.step(q_in, target=Td, twist=xi, dt=period)
-                except Exception as exc:
-                    reason = f"the controller raised {type(exc).__name__}: {exc}"
-                    outcome = "halted"
-                    PER.pop()
-                    break
-                t_ctrl = time.perf_counter()
-                qd_cmd, qdd_cmd, status, sigma = cmd.qd, cmd.qdd, cmd.status, cmd.sigma_min
-                if status == "halted" and getattr(ctrl, "halted", False) and not halting:
-                    halting = cmd.reason
-            # 4. command
-            try:
-                driver.command(qd_cmd)
-            except Exception as exc:
-                reason = f"driver command() failed: {type(exc).__name__}: {exc}"
-                outcome = "halted"
-                PER.pop()
-                break
-            t_cmd = time.perf_counter()
-            _record(trace, state, qd_cmd, qdd_cmd, status, sigma, Td, s_now, fresh)
-            TM.append((t_read - start, t_ctrl - t_read, t_cmd - t_ctrl, t_cmd - start))
-            # 5. end conditions (on fresh states)
-            if fresh:
-                if halting:
-                    if float(np.max(np.abs(qd_cmd))) <= _END_SPEED:
-                        reason, outcome = halting, "halted"
-                        break
-                elif mode in ("target", "path") and (mode == "target" or phase_settle_start is not None):
-                    if cmd.position_error <= pos_tol and cmd.orientation_error <= ori_tol:
-                        reason, outcome = "reached the end pose within tolerance", "completed"
-                        break
-                if not halting and t >= limit:
-                    if mode == "twist":
-                        reason, outcome = f"ran for the requested {limit:g} s", "completed"
-                    else:
-                        reason = (
-                            f"did not reach the end pose within {limit:g} s "
-                            f"({cmd.position_error * 1e3:.3g} mm, {math.degrees(cmd.orientation_error):.3g}° "
-                            "from it)"
-                        )
-                        outcome = "timeout"
-                    break
-                if t >= limit + 2.0:  # a halt that does not come to rest: stop anyway
-                    reason, outcome = f"{halting}; still moving {limit + 2.0:g} s in", "halted"
-                    break
-            now = time.perf_counter()
-            if line.enabled and now >= line.next:
-                line.update(
-                    now,
-                    f"t {t:7.2f} s | {len(PER) / max(now - t0, 1e-9):6.1f} Hz | {status:<20} | "
-                    f"err {(cmd.position_error * 1e3) if fresh and Td is not None else math.nan:7.3f} mm"
-                    f" | overruns {overruns}",
-                )
-            # 6. wait for the next deadline (sleep; never spin)
-            deadline += period
-            if now > deadline:
-                overruns += 1
-                if now > deadline + period:  # more than a period behind: skip the missed slots
-                    deadline = now
-            else:
-                time.sleep(deadline - now)
-    except KeyboardInterrupt as exc:
-        interrupted = exc
-        reason, outcome = "interrupted by the user (Ctrl-C)", "interrupted"
-    except Exception as exc:  # a bug must still stop the robot and leave a record
-        reason, outcome = f"the loop failed: {type(exc).__name__}: {exc}", "halted"
-    finally:
-        line.close()
-        # stop the robot on every way out
-        try:
-            driver.stop()
-        except BaseException as exc:  # noqa: BLE001 - a failing stop must not hide the record
-            if isinstance(exc, KeyboardInterrupt) and interrupted is None:
-                interrupted = exc
-                reason, outcome = "interrupted by the user (Ctrl-C)", "interrupted"
-            stop_error = f"{type(exc).__name__}: {exc}"
-
-    ex = _execution(
-        chain,
-        mode,
-        path,
-        Td_fixed,
-        T_stamp,
-        Q,
-        QDm,
-        QD,
-        QDD,
-        ST,
-        SIG,
-        TD,
-        S,
-        FRESH,
-        PER,
-        TM,
+    ref = _reference(path, target, twist, duration, settle)
+    ctrl = _controller(controller, chain)
+    state0 = _first_state(driver, ref)  # nothing moves before the loop
+    _warm_up(ctrl, ref, state0, period, controller)
+    show = status_line if status_line is not None else (_is_tty(sys.stderr) and ref.limit > 2.0)
+    loop = _Loop(
+        driver,
+        ctrl,
+        ref,
+        state0,
         period=period,
-        rate_hz=rate_hz,
-        overruns=overruns,
-        outcome=outcome,
-        reason=reason,
-        halt_delay=halt_delay,
-        stop_error=stop_error,
-        stamp0=stamp0,
-        state0=state0,
-        tol=(pos_tol, ori_tol),
+        timeout=timeout,
+        tolerance=(pos_tol, ori_tol),
+        line=_StatusLine(bool(show)),
     )
-    if interrupted is not None and on_interrupt == "raise":
-        interrupted.execution = ex  # type: ignore[attr-defined]
-        raise interrupted
+    loop.run()
+    ex = _execution(loop, chain, rate_hz)
+    if loop.interrupted is not None and on_interrupt == "raise":
+        loop.interrupted.execution = ex  # type: ignore[attr-defined]  # the record rides on the exception
+        raise loop.interrupted
     return ex
 
 
-def _record(trace, state, qd, qdd, status, sigma, Td, s, fresh) -> None:
-    for column, value in zip(
-        trace, (state.stamp, state.q, state.qd, qd, qdd, status, sigma, Td, s, fresh), strict=True
-    ):
-        column.append(value)
+# ---------------------------------------------------------------------- the loop
+class _Loop:
+    """The state of one run: the trace so far, the watchdog, the schedule and how it ended.
 
+    `run` calls `period` until it returns False (`cycle`: read → watchdog → reference and
+    controller step → command → record → end conditions → wait), then stops the robot
+    (`stop`); `execution` makes the record. ``outcome`` is "completed", "halted",
+    "interrupted" or "timeout" (the duration ran out), "" while running; ``reason`` says why.
+    """
 
-def _execution(
-    chain,
-    mode,
-    path,
-    target,
-    T_stamp,
-    Q,
-    QDm,
-    QD,
-    QDD,
-    ST,
-    SIG,
-    TD,
-    S,
-    FRESH,
-    PER,
-    TM,
-    *,
-    period,
-    rate_hz,
-    overruns,
-    outcome,
-    reason,
-    halt_delay,
-    stop_error,
-    stamp0,
-    state0,
-    tol,
-) -> Execution:
-    """Fill the record (after the loop; nothing here runs in real time)."""
-    n = chain.dof
-    if not Q:  # ended before the first cycle was recorded: the first state is the record
-        _record(
-            (T_stamp, Q, QDm, QD, QDD, ST, SIG, TD, S, FRESH),
-            state0,
-            np.zeros(n),
-            np.zeros(n),
+    def __init__(
+        self,
+        driver: Driver,
+        ctrl: ResolvedRateController,
+        ref: _Reference,
+        state0: RobotState,
+        *,
+        period: float,
+        timeout: float,
+        tolerance: tuple[float, float],
+        line: _StatusLine,
+    ) -> None:
+        self.driver, self.ctrl, self.ref, self.state0, self.line = driver, ctrl, ref, state0, line
+        self.period, self.timeout, self.tolerance = period, timeout, tolerance
+        self.n = n = driver.chain.dof
+        # the trace: one entry per recorded cycle (periods: per cycle started, popped when the
+        # cycle ends the run without a record)
+        self.stamps: list[float] = []
+        self.q: list[np.ndarray] = []
+        self.qd_measured: list[np.ndarray] = []
+        self.qd: list[np.ndarray] = []
+        self.qdd: list[np.ndarray] = []
+        self.statuses: list[str] = []
+        self.sigma: list[float] = []
+        self.Td: list[np.ndarray | None] = []
+        self.s: list[float] = []
+        self.fresh: list[bool] = []
+        self.periods: list[float] = []
+        self.timing: list[tuple[float, float, float, float]] = []  # (read, control, command, work) [s]
+        self.zero = np.zeros(n)
+        self.zero.setflags(write=False)  # shared by every cycle that records "no command"
+        # the controller's last output (held on stale cycles)
+        self.qd_cmd = self.zero
+        self.status = "regular"
+        self.sigma_min = math.nan
+        self.halting = ""  # the reason of a controller halt being decelerated
+        # how it ended
+        self.reason = ""
+        self.outcome = ""
+        self.halt_delay = math.nan
+        self.interrupted: KeyboardInterrupt | None = None
+        self.stop_error = ""
+        # the watchdog and the schedule
+        self.last_stamp = -math.inf
+        self.last_fresh_wall = time.perf_counter()
+        self.overruns = 0
+        self.t0 = time.perf_counter()
+        self.deadline = self.t0
+        self.prev_start = self.t0 - period
+
+    def _end(self, reason: str, outcome: str, *, recorded: bool = True) -> None:
+        """End the run; ``recorded=False``: the ending cycle left no record (nor its period)."""
+        self.reason, self.outcome = reason, outcome
+        if not recorded:
+            self.periods.pop()
+
+    def record(self, state: RobotState, qd: np.ndarray, qdd: np.ndarray, status: str, fresh: bool) -> None:
+        self.stamps.append(state.stamp)
+        self.q.append(state.q)
+        self.qd_measured.append(state.qd)
+        self.qd.append(qd)
+        self.qdd.append(qdd)
+        self.statuses.append(status)
+        self.sigma.append(self.sigma_min)
+        self.Td.append(self.ref.Td)
+        self.s.append(self.ref.s)
+        self.fresh.append(fresh)
+
+    def run(self) -> None:
+        """Cycle until an end condition; on every way out stop the robot and note why."""
+        try:
+            while self.cycle():
+                pass
+        except KeyboardInterrupt as exc:
+            self.interrupted = exc
+            self._end("interrupted by the user (Ctrl-C)", "interrupted")
+        except Exception as exc:  # a bug must still stop the robot and leave a record
+            self._end(f"the loop failed: {type(exc).__name__}: {exc}", "halted")
+        finally:
+            self.line.close()
+            self.stop()
+
+    def stop(self) -> None:
+        """``driver.stop()``; a failure is noted (``stop_error``), never raised — a Ctrl-C
+        during it counts as the interruption."""
+        try:
+            self.driver.stop()
+        except BaseException as exc:  # noqa: BLE001 - a failing stop must not hide the record
+            if isinstance(exc, KeyboardInterrupt) and self.interrupted is None:
+                self.interrupted = exc
+                self._end("interrupted by the user (Ctrl-C)", "interrupted")
+            self.stop_error = f"{type(exc).__name__}: {exc}"
+
+    def cycle(self) -> bool:
+        """One period: read, watchdog, step (on a fresh state), command, end conditions, wait.
+        Returns False when the run ends."""
+        start = time.perf_counter()
+        self.periods.append(start - self.prev_start)
+        self.prev_start = start
+        try:
+            state = self.driver.read()
+        except Exception as exc:
+            self._end(f"driver read() failed: {type(exc).__name__}: {exc}", "halted", recorded=False)
+            return False
+        t_read = time.perf_counter()
+        fresh = state.stamp > self.last_stamp
+        if fresh:
+            self.last_stamp = state.stamp
+            self.last_fresh_wall = start
+        elif start - self.last_fresh_wall > self.timeout:
+            self._watchdog(state, start, t_read)
+            return False
+        t = state.stamp - self.state0.stamp
+        qdd_cmd = self.zero
+        t_ctrl = t_read
+        cmd = None
+        if fresh:
+            cmd = self._step(state, t)
+            if cmd is None:
+                return False
+            t_ctrl = time.perf_counter()
+            self.qd_cmd, qdd_cmd, self.status, self.sigma_min = cmd.qd, cmd.qdd, cmd.status, cmd.sigma_min
+            if cmd.status == "halted" and getattr(self.ctrl, "halted", False) and not self.halting:
+                self.halting = cmd.reason
+        try:
+            self.driver.command(self.qd_cmd)
+        except Exception as exc:
+            self._end(f"driver command() failed: {type(exc).__name__}: {exc}", "halted", recorded=False)
+            return False
+        t_cmd = time.perf_counter()
+        self.record(state, self.qd_cmd, qdd_cmd, self.status, fresh)
+        self.timing.append((t_read - start, t_ctrl - t_read, t_cmd - t_ctrl, t_cmd - start))
+        if cmd is not None and self._finished(t, cmd):
+            return False
+        now = time.perf_counter()
+        if self.line.enabled and now >= self.line.next:
+            self._report(now, t, cmd)
+        self._wait(now)
+        return True
+
+    def _watchdog(self, state: RobotState, start: float, t_read: float) -> None:
+        """No fresh state for longer than the timeout: record a halted cycle and end."""
+        self.halt_delay = start - self.last_fresh_wall
+        self.record(state, self.zero, self.zero, "halted", False)
+        self.timing.append((t_read - start, 0.0, 0.0, time.perf_counter() - start))
+        self._end(
+            f"watchdog: no fresh state for {self.halt_delay * 1e3:.1f} ms (timeout "
+            f"{self.timeout * 1e3:.1f} ms); last stamp {state.stamp:.6g} s",
             "halted",
-            math.nan,
-            target,
-            0.0,
-            True,
         )
-        PER.append(period)
-        TM.append((0.0, 0.0, 0.0, 0.0))
-    PER[0] = period
-    q = np.array(Q, dtype=float).reshape(-1, n)
-    stamps = np.array(T_stamp, dtype=float)
-    t = stamps - stamp0
-    K = len(q)
-    ok = np.all(np.isfinite(q), axis=1)
-    poses = np.full((K, 4, 4), math.nan)
-    if ok.any():
-        poses[ok] = chain.fk(q[ok])
-    pos_err = ori_err = track = None
-    s_arr = None
-    if mode in ("path", "target"):
-        track = np.full(K, math.nan)
-        for k in range(K):
-            if ok[k] and TD[k] is not None:
-                track[k] = float(np.linalg.norm(poses[k][:3, 3] - TD[k][:3, 3]))
-    if mode == "path":
-        s_arr = np.array(S, dtype=float)
-        pos_err, ori_err = np.full(K, math.nan), np.full(K, math.nan)
+
+    def _step(self, state: RobotState, t: float) -> Command | None:
+        """The reference at robot time t and the controller's step on the measured state (a
+        non-finite one latches the controller's safe halt); None when the run ends here."""
+        try:
+            xi = self.ref.at(t)
+        except Exception as exc:
+            self._end(f"the reference raised {type(exc).__name__}: {exc}", "halted", recorded=False)
+            return None
+        if self.ref.mode == "twist" and xi is None and not self.halting:
+            self._end("the twist stream ended", "completed", recorded=False)
+            return None
+        q_in = state.q if state.finite else np.full(self.n, math.nan)
+        if not state.finite and not self.halting:
+            self.halting = (
+                f"non-finite measured state at t = {t:.4g} s "
+                f"({'q' if not np.all(np.isfinite(state.q)) else 'q̇ or stamp'})"
+            )
+        try:
+            return self.ctrl.step(q_in, target=self.ref.Td, twist=xi, dt=self.period)
+        except Exception as exc:
+            self._end(f"the controller raised {type(exc).__name__}: {exc}", "halted", recorded=False)
+            return None
+
+    def _finished(self, t: float, cmd: Command) -> bool:
+        """The end conditions, checked after a fresh cycle: a halt come to rest, the end pose
+        reached, the time limit (2 s more for a halt that does not come to rest)."""
+        limit = self.ref.limit
+        if self.halting:
+            if float(np.max(np.abs(self.qd_cmd))) <= _END_SPEED:
+                self._end(self.halting, "halted")
+                return True
+        elif self.ref.on_end_pose:
+            if cmd.position_error <= self.tolerance[0] and cmd.orientation_error <= self.tolerance[1]:
+                self._end("reached the end pose within tolerance", "completed")
+                return True
+        if not self.halting and t >= limit:
+            if self.ref.mode == "twist":
+                self._end(f"ran for the requested {limit:g} s", "completed")
+            else:
+                self._end(
+                    f"did not reach the end pose within {limit:g} s ({cmd.position_error * 1e3:.3g} mm, "
+                    f"{math.degrees(cmd.orientation_error):.3g}° from it)",
+                    "timeout",
+                )
+            return True
+        if t >= limit + 2.0:  # a halt that does not come to rest: stop anyway
+            self._end(f"{self.halting}; still moving {limit + 2.0:g} s in", "halted")
+            return True
+        return False
+
+    def _report(self, now: float, t: float, cmd: Command | None) -> None:
+        err = cmd.position_error * 1e3 if cmd is not None and self.ref.Td is not None else math.nan
+        self.line.update(
+            now,
+            f"t {t:7.2f} s | {len(self.periods) / max(now - self.t0, 1e-9):6.1f} Hz | {self.status:<20} | "
+            f"err {err:7.3f} mm | overruns {self.overruns}",
+        )
+
+    def _wait(self, now: float) -> None:
+        """Sleep until the next deadline (never spin); past it, an overrun — more than a period
+        behind, the schedule restarts from now (missed slots are skipped)."""
+        self.deadline += self.period
+        if now > self.deadline:
+            self.overruns += 1
+            if now > self.deadline + self.period:
+                self.deadline = now
+        else:
+            time.sleep(self.deadline - now)
+
+
+# ---------------------------------------------------------------------- the record
+def _errors(
+    ref: _Reference, poses: np.ndarray, ok: np.ndarray, Td: list[np.ndarray | None], s: np.ndarray
+) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+    """(position error, orientation error, tracking error, end pose) of the measured poses.
+
+    A path: distance [m] and angle [rad] from the nearest point of the path (searched near the
+    reference's s, then near the previous match); a target: ‖p_d − p‖ and ‖log(R_d Rᵀ)‖. The
+    tracking error is ‖p_d(t) − p(t)‖ [m] from the reference of the same cycle. NaN where the
+    measured q is not finite; all None for a twist stream.
+    """
+    if ref.mode == "twist":
+        return None, None, None, None
+    K = len(poses)
+    track = np.full(K, math.nan)
+    pos_err, ori_err = np.full(K, math.nan), np.full(K, math.nan)
+    for k in range(K):
+        Tk = Td[k]
+        if ok[k] and Tk is not None:
+            track[k] = float(np.linalg.norm(poses[k][:3, 3] - Tk[:3, 3]))
+    if ref.path is not None:
+        path = ref.path
         window = 0.25 * path.length + 1e-3
         hint = None
         for k in range(K):
             if ok[k]:
                 pos_err[k], ori_err[k], hint = path.distance(
-                    poses[k], s_hint=s_arr[k] if hint is None else hint, window=window
+                    poses[k], s_hint=s[k] if hint is None else hint, window=window
                 )
-        T_end = path.end
-        nominal = float(path.duration)
-    elif mode == "target":
-        pos_err, ori_err = np.full(K, math.nan), np.full(K, math.nan)
-        for k in range(K):
-            if ok[k]:
-                e = pose_error(target, poses[k])
-                pos_err[k], ori_err[k] = float(np.linalg.norm(e[:3])), float(np.linalg.norm(e[3:]))
-        T_end = target
-        nominal = math.nan
-    else:
-        T_end = None
-        nominal = math.nan
-    info = {
-        "reason": reason,
-        "outcome": outcome,
-        "mode": mode,
-        "halt_delay": halt_delay,
-        "timing": {
-            name: np.array([row[i] for row in TM])
-            for i, name in enumerate(("read", "control", "command", "work"))
-        },
-        "stop_error": stop_error,
-    }
-    if T_end is not None and ok.any():
-        last = int(np.flatnonzero(ok)[-1])
-        e = pose_error(T_end, poses[last])
-        info["end_position_error"] = float(np.linalg.norm(e[:3]))
-        info["end_orientation_error"] = float(np.linalg.norm(e[3:]))
-    completed = outcome == "completed"
-    if outcome == "halted":
-        message = f"halted: {reason}"
-    elif outcome == "interrupted":
-        message = reason
-    elif outcome == "timeout":
-        message = reason
-    else:
-        message = reason or "ended"
+        return pos_err, ori_err, track, path.end
+    assert ref.target is not None  # mode "target"
+    for k in range(K):
+        if ok[k]:
+            e = pose_error(ref.target, poses[k])
+            pos_err[k], ori_err[k] = float(np.linalg.norm(e[:3])), float(np.linalg.norm(e[3:]))
+    return pos_err, ori_err, track, ref.target
+
+
+def _message(outcome: str, reason: str, stop_error: str) -> str:
+    message = f"halted: {reason}" if outcome == "halted" else (reason or "ended")
     if stop_error:
         message += f"; driver.stop() failed: {stop_error}"
-    statuses = tuple(ST)
-    if outcome in ("halted", "interrupted") and statuses and statuses[-1] != "halted":
+    return message
+
+
+def _execution(loop: _Loop, chain: Chain, rate_hz: float) -> Execution:
+    """The record of the run (after the loop; nothing here runs in real time)."""
+    n, ref = chain.dof, loop.ref
+    if not loop.q:  # ended before the first cycle was recorded: the first state is the record
+        ref.Td, ref.s, loop.sigma_min = ref.target, 0.0, math.nan
+        loop.record(loop.state0, np.zeros(n), np.zeros(n), "halted", True)
+        loop.periods.append(loop.period)
+        loop.timing.append((0.0, 0.0, 0.0, 0.0))
+    loop.periods[0] = loop.period
+    q = np.array(loop.q, dtype=float).reshape(-1, n)
+    stamps = np.array(loop.stamps, dtype=float)
+    t = stamps - loop.state0.stamp
+    K = len(q)
+    ok = np.all(np.isfinite(q), axis=1)
+    poses = np.full((K, 4, 4), math.nan)
+    if ok.any():
+        poses[ok] = chain.fk(q[ok])
+    s = np.array(loop.s, dtype=float)
+    pos_err, ori_err, track, T_end = _errors(ref, poses, ok, loop.Td, s)
+    end: dict[str, float] = {}
+    if T_end is not None and ok.any():
+        e = pose_error(T_end, poses[int(np.flatnonzero(ok)[-1])])
+        end = {
+            "end_position_error": float(np.linalg.norm(e[:3])),
+            "end_orientation_error": float(np.linalg.norm(e[3:])),
+        }
+    info = {
+        "reason": loop.reason,
+        "outcome": loop.outcome,
+        "mode": ref.mode,
+        "halt_delay": loop.halt_delay,
+        "timing": {name: np.array([row[i] for row in loop.timing]) for i, name in enumerate(_TIMING)},
+        "stop_error": loop.stop_error,
+        **end,
+    }
+    statuses = tuple(loop.statuses)
+    if loop.outcome in ("halted", "interrupted") and statuses and statuses[-1] != "halted":
         statuses = statuses[:-1] + ("halted",)
-    qd_m = np.array(QDm, dtype=float).reshape(-1, n)
     return Execution(
         t=t,
         q=q,
-        qd=np.array(QD, dtype=float).reshape(-1, n),
-        qdd=np.array(QDD, dtype=float).reshape(-1, n),
+        qd=np.array(loop.qd, dtype=float).reshape(-1, n),
+        qdd=np.array(loop.qdd, dtype=float).reshape(-1, n),
         poses=poses,
         position_error=pos_err,
         orientation_error=ori_err,
         tracking_error=track,
         statuses=statuses,
-        sigma_min=np.array(SIG, dtype=float),
-        s=s_arr,
-        nominal_duration=nominal,
+        sigma_min=np.array(loop.sigma, dtype=float),
+        s=s if ref.path is not None else None,
+        nominal_duration=float(ref.path.duration) if ref.path is not None else math.nan,
         duration=float(t[-1] - t[0]) if K else 0.0,
-        completed=completed,
-        message=message,
+        completed=loop.outcome == "completed",
+        message=_message(loop.outcome, loop.reason, loop.stop_error),
         source="run",
         chain_name=chain.name,
         joint_names=tuple(chain.joint_names),
@@ -639,10 +697,10 @@ def _execution(
         amax=np.array(chain.amax),
         info=info,
         q_measured=q,
-        qd_measured=qd_m,
+        qd_measured=np.array(loop.qd_measured, dtype=float).reshape(-1, n),
         stamps=stamps,
-        fresh=np.array(FRESH, dtype=bool),
-        periods=np.array(PER, dtype=float),
+        fresh=np.array(loop.fresh, dtype=bool),
+        periods=np.array(loop.periods, dtype=float),
         rate_hz=rate_hz,
-        overruns=overruns,
+        overruns=loop.overruns,
     )

@@ -226,3 +226,37 @@ def test_status_line_when_asked(arm, capsys):
     rc.run(drv, twist=np.zeros(6), rate_hz=200.0, duration=0.05)  # not a terminal: silent
     assert capsys.readouterr().err == ""
     assert math.isfinite(rc.run(drv, twist=np.zeros(6), rate_hz=200.0, duration=0.05).period_p99)
+
+
+def test_the_info_mapping_and_the_arrays_in_it_are_read_only(arm):
+    import pickle
+
+    drv = ScriptedDriver(arm, Q0)
+    T = arm.fk(Q0)
+    T[:3, 3] += [0.0, 0.0, 0.005]
+    ex = rc.run(drv, target=T, rate_hz=500.0, duration=1.0)
+    with pytest.raises(TypeError):
+        ex.info["x"] = 1  # type: ignore[index]
+    with pytest.raises(TypeError):
+        ex.info["timing"]["work"] = np.zeros(1)  # type: ignore[index]
+    with pytest.raises(ValueError, match="read-only"):
+        ex.info["timing"]["work"][0] = 1.0
+    for name in ("t", "q", "qd", "qdd", "poses", "position_error", "orientation_error", "tracking_error",
+                 "sigma_min", "vmax", "amax", "q_measured", "qd_measured", "stamps", "fresh", "periods"):
+        a = getattr(ex, name)
+        with pytest.raises(ValueError, match="read-only"):
+            a.flat[0] = 0.0
+    # a record built from a dict the caller still holds: later changes to the dict do not reach it
+    info = {"n": 1, "a": np.ones(3), "nested": {"b": [np.zeros(2)]}}
+    ex2 = rc.Execution(t=ex.t, q=ex.q, qd=ex.qd, qdd=ex.qdd, info=info)
+    info["n"] = 2
+    info["a"][0] = 5.0
+    info["nested"]["b"].append(1)
+    assert ex2.info["n"] == 1 and ex2.info["a"][0] == 1.0 and len(ex2.info["nested"]["b"]) == 1
+    with pytest.raises(ValueError, match="read-only"):
+        ex2.info["nested"]["b"][0][0] = 1.0
+    # it still pickles (a read-only mapping cannot, so it travels as plain dicts)
+    ex3 = pickle.loads(pickle.dumps(ex))
+    assert ex3.info["outcome"] == ex.info["outcome"] and np.array_equal(ex3.q, ex.q)
+    with pytest.raises(TypeError):
+        ex3.info["x"] = 1  # type: ignore[index]
