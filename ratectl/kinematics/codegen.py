@@ -30,6 +30,7 @@ import itertools
 import linecache
 import math
 import re
+import threading
 
 import numpy as np
 
@@ -580,6 +581,11 @@ def sincos(qT: np.ndarray, phases, W: np.ndarray, n: int) -> None:
 
 
 _SERIAL = itertools.count()
+# Generation parses and compiles with the ast module; CPython 3.11's AST constructor keeps a
+# recursion counter that concurrent threads can corrupt ("AST constructor recursion depth
+# mismatch"), so kernels are generated and compiled one at a time. Evaluating compiled kernels
+# needs no lock.
+_COMPILE_LOCK = threading.Lock()
 
 
 def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str = "chain",
@@ -588,8 +594,14 @@ def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str =
 
     The source is registered with `linecache` under a unique file name
     (``<ratectl kernel LABEL fkjac #k>``), so tracebacks, `inspect.getsource` and
-    pdb show the generated lines.
+    pdb show the generated lines. Thread-safe (generation is serialised, see ``_COMPILE_LOCK``).
     """
+    with _COMPILE_LOCK:
+        return _compile_kernel(joints, base, tool, what=what, batched=batched, label=label,
+                               guard=guard, chain=chain)
+
+
+def _compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str, guard, chain):
     src = generate_source(joints, base, tool, what=what, batched=batched,
                           guard=guard is not None and not batched)
     if batched:
