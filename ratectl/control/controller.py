@@ -34,6 +34,7 @@ errors and raise `InputError` at once.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -68,6 +69,20 @@ class _Cycle:
 
     __slots__ = ("J", "e", "ep", "eo", "xi", "target", "res", "qd", "qdd", "q_next", "flags", "reasons",
                  "active", "scale", "smin", "braking", "approach", "qdd_ff", "approach_qd")
+
+    J: np.ndarray
+    e: np.ndarray
+    ep: float
+    eo: float
+    xi: np.ndarray
+    target: bool
+    res: Any
+    qd: np.ndarray
+    qdd: np.ndarray
+    q_next: np.ndarray
+    braking: Any
+    qdd_ff: np.ndarray | None
+    approach_qd: np.ndarray | None
 
     def __init__(self) -> None:
         self.flags: list[str] = []
@@ -156,10 +171,10 @@ class ResolvedRateController:
         else:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
-        self._progress = None
+        self._progress: ProgressProfile | None = None
         self._all_joints = np.ones(n, dtype=bool)
         self._target_ok = None  # the last target found rigid (checked again only when it changes)
-        self.filter = None
+        self.filter: VelocityFilter | None = None
         if smoothing is not False and smoothing is not None:
             if smoothing is True:
                 self._check_finite_limits()
@@ -436,6 +451,7 @@ class ResolvedRateController:
         it without lag (no lag to turn into overshoot). Returns (r, q̈_ff): the scale of q̇
         and that acceleration."""
         f = self.filter
+        assert f is not None
         x = float(np.linalg.norm(cyc.e))
         K = 1.0 / self._inv_kmax
         if x <= 0.0:
@@ -581,10 +597,9 @@ class ResolvedRateController:
         self._q_last = q.copy()
         t0 = self.time
         self.time = t0 + dt
-        flags = cyc.flags
-        if flags:
-            status = min(flags, key=_RANK.__getitem__)
-            flags = tuple(dict.fromkeys(flags))
+        if cyc.flags:
+            status = min(cyc.flags, key=_RANK.__getitem__)
+            flags = tuple(dict.fromkeys(cyc.flags))
         else:
             status, flags = "regular", ("regular",)
         res = cyc.res

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -228,7 +229,7 @@ class JointTrajectory:
     duration: float
     start: np.ndarray
     goal: np.ndarray
-    _traj: object
+    _traj: Any
 
     def at(self, t: float):
         """``(q, q̇, q̈)`` at time ``t`` [s] (clamped to [0, duration])."""
