@@ -189,7 +189,7 @@ def reachability_profile(jp: JointPath, vlim, alim, path_speed, path_acc, *,
     with np.errstate(divide="ignore"):
         dt = 2.0 * dS / (sq[:-1] + sq[1:])
     rest = np.zeros(N - 1, dtype=bool)
-    for k in np.flatnonzero(x[:-1] + x[1:] < 1e-8):
+    for k in np.flatnonzero(x[:-1] + x[1:] < 1e-8).tolist():
         # nearly from rest to rest (a tiny segment at a singular end): accelerating and braking
         # at the acceleration the rows allow at x = 0 takes t = 2√(Δ/u₀), if that is shorter
         u0 = max(_u_bounds(a[k], b[k], c[k], 0.0)[1], 1e-9)
