@@ -36,8 +36,20 @@ Before any backend runs, the unconstrained minimiser P⁻¹b (the DLS solution) 
 when it lies inside the box (and satisfies G q̇ ≤ h) it is the optimum
 (``info["status"] == "unconstrained"``). For a box-only problem on the default backend a
 few primal active-set steps follow (`_box_active_set`); their answer is accepted
-only with a KKT certificate, so it is the exact optimum (``"active-set"``); when they do
-not settle within four steps OSQP answers.
+only with a KKT certificate (``"active-set"``); when they do not settle within four steps
+or their answer fails the certificate (an ill-conditioned P), OSQP answers.
+
+Every answer to a box-only problem is certified before it is returned: it must lie in
+its box and satisfy the KKT conditions
+(`kkt_violation` ≤ 1e-9, scaled); an OSQP answer
+that does not — OSQP stops at its tolerances and can say ``solved`` while far from the
+optimum with ill-conditioned task weights — is replaced by the exact solution of a
+feasible primal active-set method (`box_qp_exact`,
+``"exact-active-set"``), which also answers when OSQP fails. With extra rows the OSQP
+answer is replaced by the exact solution on its active set when that passes the KKT
+check (`polish_general`). ``info["certified"]``
+says how the answer was certified. With ``qd_ff`` (a feed-forward the caller adds) the
+box is that of the total q̇_ff + q̇.
 
 The default backend is OSQP kept **warm**: the problem is set up once with a fixed
 sparsity pattern (P upper-triangular dense, A = [I; G]) and every later call only
