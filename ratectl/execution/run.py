@@ -74,9 +74,9 @@ def _check_driver(driver: object) -> None:
         )
 
 
-def _positive(name: str, value: object) -> float:
+def _positive(name: str, value: float) -> float:
     try:
-        v = float(value)  # type: ignore[arg-type]  # anything float() accepts; the rest is reported
+        v = float(value)
     except (TypeError, ValueError):
         raise InputError(
             f"{name} must be a positive number, got {value!r}", argument=name, value=value
@@ -88,9 +88,9 @@ def _positive(name: str, value: object) -> float:
     return v
 
 
-def _is_tty(stream: object) -> bool:
+def _is_tty(stream: TextIO) -> bool:
     try:
-        return bool(stream.isatty())  # type: ignore[attr-defined]  # any stream; no isatty → False
+        return bool(stream.isatty())
     except (AttributeError, ValueError, OSError):
         return False
 
