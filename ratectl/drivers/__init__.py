@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import importlib
+from typing import Any
 
 from .base import Driver, RobotState
 from .franka import FrankyDriver, FrankySim, franky_chain
@@ -33,7 +34,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> Any:
     # a re-export from the interop layer, resolved on first use (no import at load time)
     if name == "MujocoDriver":
         value = importlib.import_module("ratectl.interop.mujoco.driver").MujocoDriver
@@ -42,5 +43,5 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'ratectl.drivers' has no attribute {name!r}")
 
 
-def __dir__():
+def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..model import Chain
 
@@ -83,7 +84,7 @@ class Driver(Protocol):
         """The latest measured state (the previous one again, same stamp, if none is new)."""
         ...
 
-    def command(self, qd: np.ndarray) -> None:
+    def command(self, qd: ArrayLike) -> None:
         """Command the joint velocity ``qd`` (n,) [rad/s or m/s]."""
         ...
 

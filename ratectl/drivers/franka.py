@@ -26,9 +26,11 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from types import ModuleType
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import DriverError, InputError
 from ..model import Chain
@@ -37,7 +39,7 @@ from .base import RobotState
 __all__ = ["FrankyDriver", "FrankySim", "franky_chain"]
 
 
-def _import_franky():
+def _import_franky() -> ModuleType:
     try:
         import franky
     except ImportError as exc:  # pragma: no cover - depends on the environment
@@ -49,7 +51,15 @@ def _import_franky():
     return franky
 
 
-def franky_chain(urdf: str, *, flange: str = "link8", tool=None, vmax=None, amax=None, jmax=None) -> Chain:
+def franky_chain(
+    urdf: str,
+    *,
+    flange: str = "link8",
+    tool: ArrayLike | None = None,
+    vmax: ArrayLike | None = None,
+    amax: ArrayLike | None = None,
+    jmax: ArrayLike | None = None,
+) -> Chain:
     """The arm's chain from its URDF text, tip ``flange``, with ``tool`` (flange → tool, 4×4,
     after the URDF's own fixed transforms up to the flange) and the given per-joint limits
     (None keeps the URDF's).
@@ -96,14 +106,14 @@ class FrankyDriver:
         self,
         hostname: str,
         *,
-        tool=None,
+        tool: ArrayLike | None = None,
         flange: str = "link8",
-        dynamics_factor=1.0,
+        dynamics_factor: ArrayLike = 1.0,
         hold: float = 0.02,
         realtime: bool = False,
         stop_timeout: float = 1.0,
         connect_timeout: float = 5.0,
-        robot=None,
+        robot: Any = None,
     ) -> None:
         franky = _import_franky()
         self._franky = franky
@@ -163,7 +173,7 @@ class FrankyDriver:
         return self._chain
 
     @property
-    def robot(self):
+    def robot(self) -> Any:
         """The underlying ``franky.Robot``."""
         return self._robot
 
@@ -179,7 +189,7 @@ class FrankyDriver:
                 cause=exc,
             ) from exc
 
-    def command(self, qd) -> None:
+    def command(self, qd: ArrayLike) -> None:
         """Stream ``qd`` (7,) [rad/s] as an asynchronous joint-velocity motion held for ``hold``."""
         v = np.asarray(qd, dtype=float).reshape(-1)
         if v.shape != (self._chain.dof,):
@@ -273,14 +283,16 @@ class FrankySim:
         process: the server's ``subprocess.Popen``.
     """
 
-    def __init__(self, *, q0=None, nice: int | None = None, startup_timeout: float = 60.0) -> None:
+    def __init__(
+        self, *, q0: ArrayLike | None = None, nice: int | None = None, startup_timeout: float = 60.0
+    ) -> None:
         import select
         import subprocess
         import sys
 
         arg = "" if q0 is None else ",".join(repr(float(v)) for v in np.asarray(q0, dtype=float).reshape(-1))
         self.process = subprocess.Popen(
-            [sys.executable, "-c", _SIM_SERVER, arg],
+            [sys.executable, "-c", _SIM_SERVER, arg, "" if nice is None else str(int(nice))],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
@@ -302,11 +314,12 @@ class FrankySim:
     def __enter__(self) -> FrankySim:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
     @property
     def alive(self) -> bool:
+        """True while the server process runs."""
         return self.process.poll() is None
 
     def close(self, timeout: float = 5.0) -> None:

@@ -16,6 +16,7 @@ import math
 import time
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import DriverError, InputError
 from ..model import Chain
@@ -52,7 +53,7 @@ class ScriptedDriver:
     def __init__(
         self,
         chain: Chain,
-        q0,
+        q0: ArrayLike,
         *,
         strict: bool = True,
         read_delay: float = 0.0,
@@ -91,6 +92,7 @@ class ScriptedDriver:
 
     @property
     def chain(self) -> Chain:
+        """The arm."""
         return self._chain
 
     def _now(self) -> float:
@@ -124,7 +126,7 @@ class ScriptedDriver:
         self._last = RobotState(stamp=t, q=q, qd=self._qd)
         return self._last
 
-    def command(self, qd) -> None:
+    def command(self, qd: ArrayLike) -> None:
         """Move at ``qd`` (n,) from now on."""
         t = self._now()
         if t >= self.fail_after:

@@ -74,9 +74,9 @@ def _check_driver(driver: object) -> None:
         )
 
 
-def _positive(name: str, value: object) -> float:
+def _positive(name: str, value: float) -> float:
     try:
-        v = float(value)  # type: ignore[arg-type]  # anything float() accepts; the rest is reported
+        v = float(value)
     except (TypeError, ValueError):
         raise InputError(
             f"{name} must be a positive number, got {value!r}", argument=name, value=value
@@ -88,9 +88,9 @@ def _positive(name: str, value: object) -> float:
     return v
 
 
-def _is_tty(stream: object) -> bool:
+def _is_tty(stream: TextIO) -> bool:
     try:
-        return bool(stream.isatty())  # type: ignore[attr-defined]  # any stream; no isatty → False
+        return bool(stream.isatty())
     except (AttributeError, ValueError, OSError):
         return False
 
@@ -308,7 +308,8 @@ def run(
         An `Execution` with source ``"run"``: ``q``/``q_measured`` the measured joint
         positions, ``qd_measured`` the measured velocities, ``qd``/``qdd`` the commanded
         velocity and its change, tool poses fk(q_measured), the path (or target) errors, the
-        controller statuses, the robot's stamps, loop periods and overruns. ``info`` holds
+        controller statuses, the robot's stamps, loop periods and overruns. ``info`` (a
+        read-only mapping) holds
         ``reason`` (why the run ended), ``halt_delay`` (watchdog: time from the last fresh
         state to the halt decision [s]), ``timing`` (per-cycle read, control, command and
         total work times [s]) and ``stop_error`` (if ``driver.stop()`` failed).
@@ -364,9 +365,9 @@ def run(
 class _Loop:
     """The state of one run: the trace so far, the watchdog, the schedule and how it ended.
 
-    `run` calls `period` until it returns False (`cycle`: read → watchdog → reference and
-    controller step → command → record → end conditions → wait), then stops the robot
-    (`stop`); `execution` makes the record. ``outcome`` is "completed", "halted",
+    `_Loop.run` calls `_Loop.cycle` (read → watchdog → reference and controller step →
+    command → record → end conditions → wait) until it returns False, then stops the robot
+    (`_Loop.stop`); `_execution` makes the record from the trace. ``outcome`` is "completed", "halted",
     "interrupted" or "timeout" (the duration ran out), "" while running; ``reason`` says why.
     """
 

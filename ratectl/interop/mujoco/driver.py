@@ -16,9 +16,11 @@ keeps pace with the wall clock.
 from __future__ import annotations
 
 import math
+import os
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ...drivers import RobotState
 from ...errors import DriverError, InputError
@@ -49,9 +51,9 @@ class MujocoDriver:
     def __init__(
         self,
         chain: Chain,
-        model_or_xml=None,
+        model_or_xml: mujoco.MjModel | str | os.PathLike[str] | None = None,
         *,
-        q0,
+        q0: ArrayLike,
         period: float = 0.002,
         actuation: str = "position",
         stop_time: float = 1.0,
@@ -96,6 +98,7 @@ class MujocoDriver:
 
     @property
     def chain(self) -> Chain:
+        """The arm."""
         return self._chain
 
     def read(self) -> RobotState:
@@ -103,7 +106,7 @@ class MujocoDriver:
         d = self.data
         return RobotState(stamp=float(d.time), q=d.qpos[self._qadr], qd=d.qvel[self._dadr])
 
-    def command(self, qd) -> None:
+    def command(self, qd: ArrayLike) -> None:
         """Servo toward ``qd`` (n,) for one period of physics (see the module docstring)."""
         v = np.asarray(qd, dtype=float).reshape(-1)
         if v.shape != (self._chain.dof,):
