@@ -31,6 +31,7 @@ import linecache
 import math
 import re
 import threading
+from typing import Any
 
 import numpy as np
 
@@ -56,6 +57,7 @@ class _Emitter:
 
     def __init__(self) -> None:
         self.lines: list[tuple[str, str]] = []  # (target, expression)
+        self.phases: list[float] = []  # per joint: angle offset folded into cos/sin (radians)
         self._n = 0
 
     def new(self, expr: str, prefix: str = "t") -> str:
@@ -126,12 +128,15 @@ def _ref(v) -> str:
     return repr(float(v))
 
 
+Scalar = float | str  # a known constant, or the name of a generated local (optionally "-name")
+
+
 class _Frame:
     """Symbolic pose: rotation R (3×3 scalars) and position p (3 scalars)."""
 
     def __init__(self, T: np.ndarray) -> None:
-        self.R = [[_snap(T[r, c]) for c in range(3)] for r in range(3)]
-        self.p = [_snap(T[r, 3]) for r in range(3)]
+        self.R: list[list[Scalar]] = [[_snap(T[r, c]) for c in range(3)] for r in range(3)]
+        self.p: list[Scalar] = [_snap(T[r, 3]) for r in range(3)]
 
     def apply_constant(self, em: _Emitter, C: np.ndarray) -> None:
         R, p = self.R, self.p
@@ -294,7 +299,7 @@ _UFUNC = {ast.Add: "add", ast.Sub: "subtract", ast.Mult: "multiply"}
 
 def _const(node) -> float | None:
     """The value of a numeric literal node (``0.5``, ``-0.425``), else None."""
-    if isinstance(node, ast.Constant):
+    if isinstance(node, ast.Constant) and isinstance(node.value, int | float):
         return float(node.value)
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
         v = _const(node.operand)
@@ -365,7 +370,7 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
     k_out = len(outputs)
     # where each value is needed: expression uses (line index) and output slots
     last_use: dict[str, int] = {}
-    parsed = []
+    parsed: list[ast.expr | None] = []
     for idx, (_target, expr) in enumerate(lines):
         if expr.startswith(("cos(q", "sin(q")):
             parsed.append(None)
@@ -386,12 +391,15 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
     for i in range(n):
         home[f"q{i}"] = f"q{i}"
     for idx, (target, expr) in enumerate(lines):
-        tree = parsed[idx]
-        if tree is None:  # cos(q_i) or sin(q_i): rows of the work array
-            i = int(re.match(r"\w+\(q(\d+)", expr).group(1))
+        parsed_tree = parsed[idx]
+        if parsed_tree is None:  # cos(q_i) or sin(q_i): rows of the work array
+            m = re.match(r"\w+\(q(\d+)", expr)
+            assert m is not None  # the generator writes cos(q<i>...) / sin(q<i>...) only
+            i = int(m.group(1))
             home[target] = f"{'c' if expr.startswith('cos') else 's'}q{i}"
             _emit_copies(body, target, home[target], False, slots.get(target, []))
             continue
+        tree = parsed_tree
         uses = slots.get(target, [])
         used_later = last_use.get(target, -1) > idx
         dest, negated = None, False
@@ -411,7 +419,7 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
         home[target] = dest
         _emit_copies(body, target, dest, negated, uses)
         # values whose last use was this line free their registers
-        for node in ast.walk(parsed[idx]):
+        for node in ast.walk(parsed_tree):
             if isinstance(node, ast.Name) and last_use.get(node.id) == idx:
                 h = home.get(node.id, "")
                 if h.startswith("r") and h not in regs.free:
@@ -623,7 +631,7 @@ def _compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str,
     filename = f"<ratectl kernel {label} {what}{' batched' if batched else ''} #{next(_SERIAL)}>"
     linecache.cache[filename] = (len(src), None, src.splitlines(True), filename)
     exec(compile(src, filename, "exec"), namespace)
-    fn = namespace["kernel"]
+    fn: Any = namespace["kernel"]
     fn.__source__ = src
     fn.__nwork__ = namespace.get("NWORK", 0)
     return fn

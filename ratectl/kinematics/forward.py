@@ -112,7 +112,7 @@ def _reference_kernel(chain, what: str, batched: bool):
         for k, row in enumerate(O):
             row[...] = vals[:, k]
 
-    batched_kernel.__nwork__ = 0
+    batched_kernel.__nwork__ = 0  # type: ignore[attr-defined]  # read by _run like a generated kernel's
     return batched_kernel if batched else scalar_kernel
 
 
