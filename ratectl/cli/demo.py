@@ -27,8 +27,9 @@ everywhere.
 from __future__ import annotations
 
 import math
+import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -38,6 +39,9 @@ from ..errors import InputError, RatectlError, SingularityError
 from ..model import robots
 from ..planning import ik
 from ..spatial import pose_error, rotation_angle, so3_exp
+
+if TYPE_CHECKING:
+    from ..solvers.base import Solver
 
 if TYPE_CHECKING:
     from ..model import Chain
@@ -274,7 +278,7 @@ def _finish(method, chain, path, t, q, qd, dt, *, note="", wall=0.0, pos=None, a
         completed=completed, note=note, wall_time=wall)
 
 
-def run_fixed_law(scenario: Scenario, solver, *, method: str, dt: float = 1e-3, gain: float = 10.0,
+def run_fixed_law(scenario: Scenario, solver: Solver, *, method: str, dt: float = 1e-3, gain: float = 10.0,
                   settle: float = 2.0, limits: bool = False,
                   progress: Callable[[str], None] | None = None) -> MethodResult:
     """The textbook resolved-rate loop on the nominal time law.
@@ -361,8 +365,9 @@ def _solver(method: str):
     raise InputError(f"unknown method {method!r}", argument="method", value=method)
 
 
-def compare(arm: str = "ur5e", *, dt: float = 1e-3, methods=METHODS, half_length: float = 0.15,
-            speed: float = 0.2, progress: Callable[[str], None] | None = None) -> Comparison:
+def compare(arm: str = "ur5e", *, dt: float = 1e-3, methods: Sequence[str] = METHODS,
+            half_length: float = 0.15, speed: float = 0.2, progress: Callable[[str],
+            None] | None = None) -> Comparison:
     """Run every method of ``methods`` on `wrist_line` and collect the results.
 
     Args:
@@ -449,7 +454,7 @@ def format_table(comparison: Comparison) -> str:
     return "\n".join(lines)
 
 
-def plot_comparison(comparison: Comparison, path) -> str:
+def plot_comparison(comparison: Comparison, path: str | os.PathLike[str]) -> str:
     """Plot joint speeds (relative to vmax), path error, wrist joint 4 and progress per method; save a PNG.
 
     Needs matplotlib (the ``plot`` extra). Returns the file name written.

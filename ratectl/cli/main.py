@@ -22,12 +22,17 @@ import os
 import re
 import sys
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
 
 from ..errors import InputError, RatectlError
 from ..model import robots
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = ["main", "build_parser", "load_arm", "parse_q"]
 
@@ -39,7 +44,7 @@ class _Fail(Exception):
 
 
 # --------------------------------------------------------------------------- helpers
-def load_arm(name: str, *, tip: str | None = None):
+def load_arm(name: str, *, tip: str | None = None) -> Chain:
     """A chain from a built-in name or a URDF/MJCF file path."""
     key = name.lower().replace("-", "").replace("_", "")
     aliases = {k.replace("_", ""): k for k in robots.BUILTIN}
@@ -58,8 +63,8 @@ def load_arm(name: str, *, tip: str | None = None):
                 "(or give a .urdf or MJCF .xml file)")
 
 
-def parse_q(tokens, chain, *, degrees: bool = False, seed: int | None = None,
-            warn=None) -> np.ndarray:
+def parse_q(tokens: Sequence[str], chain: Chain, *, degrees: bool = False, seed: int | None = None,
+            warn: Callable[[str], None] | None = None) -> np.ndarray:
     """Joint positions from the command line.
 
     ``tokens`` are joint values (separate or comma-separated), or one of the words
@@ -359,7 +364,7 @@ MAX_SAMPLES = 100_000_000
 class _Parser(argparse.ArgumentParser):
     """argparse with a one-line error: ``ratectl CMD: error: ...`` (no usage block)."""
 
-    def error(self, message: str):  # noqa: D102 - argparse's hook
+    def error(self, message: str) -> NoReturn:  # noqa: D102 - argparse's hook
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
@@ -406,7 +411,7 @@ def build_parser() -> argparse.ArgumentParser:
                "Run 'ratectl COMMAND --help' for the options of a command.")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
-    def arm_args(sp, *, with_q: bool):
+    def arm_args(sp: argparse.ArgumentParser, *, with_q: bool) -> None:
         sp.add_argument("arm", metavar="ARM", help=f"built-in arm ({arms}) or a .urdf/.xml file")
         sp.add_argument("--tip", help="tool link (URDF) or body (MJCF) when ARM is a file")
         if with_q:
@@ -520,7 +525,7 @@ def _join_q(argv: list[str]) -> list[str]:
     return out
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``ratectl`` command with ``argv`` (default ``sys.argv[1:]``); returns the exit code.
 
     Usage errors exit with code 2 (argparse's convention) and a one-line message on stderr;

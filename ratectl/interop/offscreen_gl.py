@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from collections.abc import Sequence
 
 __all__ = ["pick_gl_backend"]
 
@@ -18,7 +19,7 @@ _PROBE = ("import mujoco; m = mujoco.MjModel.from_xml_string('<mujoco/>'); "
           "r = mujoco.Renderer(m, 8, 8); r.render()")
 
 
-def pick_gl_backend(candidates=("egl", "osmesa"), *, timeout: float = 60.0) -> str | None:
+def pick_gl_backend(candidates: Sequence[str] = ("egl", "osmesa"), *, timeout: float = 60.0) -> str | None:
     """Set ``MUJOCO_GL`` to the first backend that renders and return its name, or None
     when none does (then render nothing and plot instead).
 

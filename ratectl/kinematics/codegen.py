@@ -31,11 +31,17 @@ import linecache
 import math
 import re
 import threading
-from typing import Any
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .reference import MAX_PRISMATIC
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+    from ..model.joints import Joint
 
 _SNAP = 1e-15
 
@@ -66,7 +72,7 @@ class _Emitter:
         self.lines.append((name, expr))
         return name
 
-    def lin(self, terms) -> float | str:
+    def lin(self, terms: Iterable[tuple[float, tuple[float | str, ...]]]) -> float | str:
         """Value of Σ coef·Πfactors, folding constants, zeros and signs."""
         const = 0.0
         parts: list[tuple[float, list[str]]] = []
@@ -260,7 +266,7 @@ def _live_lines(em: _Emitter, outputs: list) -> list[tuple[str, str]]:
     return kept
 
 
-def generate_source(joints, base: np.ndarray, tool: np.ndarray, *, what: str,
+def generate_source(joints: Sequence[Joint], base: np.ndarray, tool: np.ndarray, *, what: str,
                     batched: bool, guard: bool = False) -> str:
     """Python source of ``kernel(q0, …, q{n-1})`` or, batched, ``kernel(qT, O, W)``.
 
@@ -459,7 +465,7 @@ def _emit_copies(body, target, src, negated, uses) -> None:
 def _emit_tree(body, tree, dest, home, regs) -> None:
     """One ufunc call per binary operation of ``tree``; the root writes into ``dest``."""
 
-    def operand(node) -> tuple[str, bool]:
+    def operand(node: Any) -> tuple[str, bool]:
         c = _const(node)
         if c is not None:
             return repr(c), False
@@ -467,7 +473,7 @@ def _emit_tree(body, tree, dest, home, regs) -> None:
             return home[node.id], False
         return emit(node, None), True
 
-    def emit(node, out):
+    def emit(node: Any, out: Any) -> str:
         if not isinstance(node, ast.BinOp) or type(node.op) not in _UFUNC:
             raise ValueError(f"unexpected expression node {ast.dump(node)}")
         left, lt = operand(node.left)
@@ -530,7 +536,7 @@ def _trig_tables():
 _COS_T, _COS_LO, _SIN_T, _SIN_LO, _STEP_A, _STEP_B, _INV_STEP = _trig_tables()
 
 
-def sincos(qT: np.ndarray, phases, W: np.ndarray, n: int) -> None:
+def sincos(qT: np.ndarray, phases: Sequence[float], W: np.ndarray, n: int) -> None:
     """cos(q + φ) into ``W[:n]`` and sin(q + φ) into ``W[n:2n]`` for the (n, m) block qT,
     using ``W[2n:7n]`` as scratch; one ufunc call per operation over the whole block.
 
@@ -596,8 +602,9 @@ _SERIAL = itertools.count()
 _COMPILE_LOCK = threading.Lock()
 
 
-def compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str = "chain",
-                   guard=None, chain=None):
+def compile_kernel(joints: Sequence[Joint], base: ArrayLike, tool: ArrayLike, *, what: str, batched: bool,
+                   label: str = "chain", guard: Callable[..., None] | None = None,
+                   chain: Chain | None = None) -> Any:
     """Compile the generated source; returns the function (its source text in ``__source__``).
 
     The source is registered with `linecache` under a unique file name

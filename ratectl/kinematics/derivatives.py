@@ -2,16 +2,23 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from .forward import check_frame, check_point, jacobian, rotate_jacobian, shift_jacobian
 from .reference import all_frames
 
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+
 __all__ = ["jacobian_dot", "joint_torques"]
 
 
-def jacobian_dot(chain, q, qd, *, frame: str = "base", point=None) -> np.ndarray:
+def jacobian_dot(chain: Chain, q: ArrayLike, qd: ArrayLike, *, frame: str = "base",
+                 point: ArrayLike | None = None) -> np.ndarray:
     """Time derivative of the geometric Jacobian along the motion ``q̇``, (..., 6, n).
 
     With ω_i = Σ_{j<i, revolute} z_j q̇_j the angular velocity of the body carrying
@@ -71,7 +78,8 @@ def jacobian_dot(chain, q, qd, *, frame: str = "base", point=None) -> np.ndarray
     return Jd
 
 
-def joint_torques(chain, q, wrench, *, frame: str = "base", point=None) -> np.ndarray:
+def joint_torques(chain: Chain, q: ArrayLike, wrench: ArrayLike, *, frame: str = "base",
+                  point: ArrayLike | None = None) -> np.ndarray:
     """Static joint torques ``τ = Jᵀ F`` balancing a tool wrench ``F = [f; τ]`` [N; N·m].
 
     The wrench is expressed in the same axes (``frame``) and at the same point as the

@@ -27,12 +27,17 @@ from __future__ import annotations
 
 import os
 import threading
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from .codegen import compile_kernel
 from .reference import check_prismatic_range, reference_fk_jacobian
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = [
     "fk",
@@ -57,7 +62,7 @@ MAX_GENERATED_DOF = 64
 _FRAMES = ("base", "tool")
 
 
-def build_kernel(chain, key):
+def build_kernel(chain: Chain, key: Any) -> Any:
     """Compile (once per chain) and cache the generated kernel ``key = (what, batched)``.
 
     ``what`` is ``"fk"``, ``"jac"`` or ``"fkjac"``. In reference mode the kernel is a
@@ -78,7 +83,7 @@ def build_kernel(chain, key):
     return fn
 
 
-def kernel_source(chain, what: str = "fkjac", *, batched: bool = False) -> str:
+def kernel_source(chain: Chain, what: str = "fkjac", *, batched: bool = False) -> str:
     """The generated Python source of ``chain``'s kernel (``what`` in "fk", "jac", "fkjac").
 
     The same text is registered with `linecache`, so tracebacks, `inspect.getsource`
@@ -95,7 +100,7 @@ def kernel_source(chain, what: str = "fkjac", *, batched: bool = False) -> str:
 def _reference_kernel(chain, what: str, batched: bool):
     n = chain.dof
 
-    def flat(q):
+    def flat(q: ArrayLike) -> np.ndarray:
         T, J = reference_fk_jacobian(chain, q)
         parts = []
         if what in ("fk", "fkjac"):
@@ -104,10 +109,10 @@ def _reference_kernel(chain, what: str, batched: bool):
             parts.append(J.reshape(J.shape[:-2] + (6 * n,)))
         return np.concatenate(parts, axis=-1)
 
-    def scalar_kernel(*q):
+    def scalar_kernel(*q: Any) -> tuple[float, ...]:
         return tuple(flat(np.array(q, dtype=float)).tolist())
 
-    def batched_kernel(qT, O, W):
+    def batched_kernel(qT: Any, O: Any, W: Any) -> None:
         vals = flat(np.ascontiguousarray(qT.T))
         for k, row in enumerate(O):
             row[...] = vals[:, k]
@@ -215,19 +220,19 @@ def _run(chain, q, what: str, width: int):
     return out, batch
 
 
-def fk(chain, q) -> np.ndarray:
+def fk(chain: Chain, q: ArrayLike) -> np.ndarray:
     """Pose of the tool in the world, ``T_world_tool = base · A_1 ⋯ A_n · tool``, (..., 4, 4)."""
     vals, batch = _run(chain, q, "fk", 16)
     return vals.reshape(batch + (4, 4))
 
 
-def check_frame(frame):
+def check_frame(frame: str) -> None:
     if frame not in _FRAMES:
         raise InputError(f"frame must be 'base' or 'tool', got {frame!r}",
                          argument="frame", value=frame)
 
 
-def check_point(point):
+def check_point(point: ArrayLike) -> np.ndarray:
     p = np.asarray(point, dtype=float)
     if p.shape != (3,) or not np.all(np.isfinite(p)):
         raise InputError("point must be a finite 3-vector in tool-frame coordinates [m], "
@@ -235,7 +240,7 @@ def check_point(point):
     return p
 
 
-def shift_jacobian(J, r) -> np.ndarray:
+def shift_jacobian(J: ArrayLike, r: Any) -> np.ndarray:
     """Refer a base-axes Jacobian's linear rows to a point displaced by ``r`` [m] (base axes).
 
     ``v' = v + ω × r``, so ``J_v' = J_v − [r]× J_ω``.
@@ -251,7 +256,7 @@ def shift_jacobian(J, r) -> np.ndarray:
     return out
 
 
-def rotate_jacobian(J, R) -> np.ndarray:
+def rotate_jacobian(J: ArrayLike, R: ArrayLike) -> np.ndarray:
     """Express a Jacobian's rows in the axes of a frame with world rotation ``R``: blockdiag(Rᵀ, Rᵀ)·J."""
     J = np.asarray(J, dtype=float)
     Rt = np.swapaxes(np.asarray(R, dtype=float), -1, -2)
@@ -261,7 +266,9 @@ def rotate_jacobian(J, R) -> np.ndarray:
     return out
 
 
-def refer_jacobian(J, T, frame, point):
+def refer_jacobian(J: np.ndarray, T: np.ndarray, frame: str, point: ArrayLike | None) -> np.ndarray:
+    """The base-axes, tool-origin Jacobian ``J`` referred to ``point`` (tool coordinates [m]) and
+    expressed in ``frame`` axes, given the tool pose ``T`` (see `shift_jacobian`, `rotate_jacobian`)."""
     if point is not None:
         p = check_point(point)
         J = shift_jacobian(J, T[..., :3, :3] @ p)
@@ -270,7 +277,8 @@ def refer_jacobian(J, T, frame, point):
     return J
 
 
-def jacobian(chain, q, *, frame: str = "base", point=None) -> np.ndarray:
+def jacobian(chain: Chain, q: ArrayLike, *, frame: str = "base",
+             point: ArrayLike | None = None) -> np.ndarray:
     """Geometric Jacobian ``J(q)`` (..., 6, n) with rows ``[v; ω]``.
 
     Args:
@@ -287,10 +295,13 @@ def jacobian(chain, q, *, frame: str = "base", point=None) -> np.ndarray:
     return refer_jacobian(J, T, frame, point)
 
 
-def fk_jacobian(chain, q, *, frame: str = "base", point=None):
+def fk_jacobian(chain: Chain, q: ArrayLike, *, frame: str = "base",
+                point: ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(T_world_tool, J)`` evaluated together; see `fk` and `jacobian`."""
     n = chain._n
     vals = _single(chain, q)
+    T: np.ndarray
+    J: np.ndarray
     if vals is not None or (a := chain.check_q(q)).ndim == 1:
         flat = np.array(_kernel(chain, "fkjac", False)(*(vals if vals is not None else a.tolist())))
         T, J = flat[:16].reshape(4, 4), flat[16:].reshape(6, n)

@@ -31,9 +31,15 @@ base axes (``frame="base"``), referred to any point fixed to the tool.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = ["hessian_from_jacobian", "jacobian_hessian", "numerical_hessian"]
 
@@ -45,7 +51,7 @@ def _cross(a, b):
     return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
-def hessian_from_jacobian(J) -> np.ndarray:
+def hessian_from_jacobian(J: ArrayLike) -> np.ndarray:
     """Kinematic Hessian ``H[..., k, :, i] = ∂J_i/∂q_k`` (..., n, 6, n) from the Jacobian alone.
 
     Args:
@@ -73,7 +79,7 @@ def hessian_from_jacobian(J) -> np.ndarray:
     return H
 
 
-def jacobian_hessian(chain, q, *, point=None) -> np.ndarray:
+def jacobian_hessian(chain: Chain, q: ArrayLike, *, point: ArrayLike | None = None) -> np.ndarray:
     """Kinematic Hessian of ``chain`` at q: (..., n, 6, n), ``H[..., k, :, i] = ∂J_i/∂q_k``.
 
     Args:
@@ -85,7 +91,8 @@ def jacobian_hessian(chain, q, *, point=None) -> np.ndarray:
     return hessian_from_jacobian(chain.jacobian(q, point=point))
 
 
-def numerical_hessian(chain, q, *, step: float = 1e-6, point=None) -> np.ndarray:
+def numerical_hessian(chain: Chain, q: ArrayLike, *, step: float = 1e-6,
+                      point: ArrayLike | None = None) -> np.ndarray:
     """Central finite differences of `Chain.jacobian`, (n, 6, n), for checking.
 
     ``H_k ≈ (J(q + h e_k) − J(q − h e_k)) / 2h``; error O(h²) + O(ε/h).

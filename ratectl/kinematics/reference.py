@@ -15,9 +15,15 @@ for stepping through the kinematics in a debugger.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = ["frames", "joint_axes", "reference_fk_jacobian", "numerical_jacobian", "MAX_PRISMATIC",
            "check_prismatic_range"]
@@ -45,7 +51,7 @@ def _motion(kind: str, q: np.ndarray) -> np.ndarray:
 MAX_PRISMATIC = 1e9
 
 
-def check_prismatic_range(chain, a) -> None:
+def check_prismatic_range(chain: Chain, a: np.ndarray) -> None:
     """Refuse prismatic joint values beyond ±`MAX_PRISMATIC` m in ``a`` (..., n)."""
     pr = chain.prismatic
     if pr.any():
@@ -59,7 +65,7 @@ def check_prismatic_range(chain, a) -> None:
                              argument="q", value=a)
 
 
-def all_frames(chain, q):
+def all_frames(chain: Chain, q: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(DH frames (..., n+1, 4, 4), joint frames T_{i-1}·P_i (..., n, 4, 4), tool pose)."""
     a = chain.check_q(q)
     check_prismatic_range(chain, a)
@@ -77,7 +83,7 @@ def all_frames(chain, q):
     return Ts, Js, T @ chain.tool
 
 
-def frames(chain, q) -> np.ndarray:
+def frames(chain: Chain, q: ArrayLike) -> np.ndarray:
     """World poses of the DH frames ``T_0 … T_n`` (..., n+1, 4, 4); ``T_0`` is the base.
 
     For standard DH, joint i moves about the z axis of frame i−1 (``T[..., i-1]``);
@@ -86,13 +92,13 @@ def frames(chain, q) -> np.ndarray:
     return all_frames(chain, q)[0]
 
 
-def joint_axes(chain, q):
+def joint_axes(chain: Chain, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Unit world axis ``z_i`` (..., n, 3) and a point ``o_i`` on it (..., n, 3) of every joint."""
     _, Js, _ = all_frames(chain, q)
     return Js[..., :3, 2].copy(), Js[..., :3, 3].copy()
 
 
-def reference_fk_jacobian(chain, q):
+def reference_fk_jacobian(chain: Chain, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """``(T_world_tool (..., 4, 4), J (..., 6, n))`` by the literal recursion (no generated code)."""
     Ts, Js, T = all_frames(chain, q)
     z = Js[..., :3, 2]
@@ -106,7 +112,7 @@ def reference_fk_jacobian(chain, q):
     return T, J
 
 
-def numerical_jacobian(chain, q, *, step: float = 1e-6) -> np.ndarray:
+def numerical_jacobian(chain: Chain, q: ArrayLike, *, step: float = 1e-6) -> np.ndarray:
     """Central finite-difference Jacobian of `Chain.fk` (6, n), for checking.
 
     Linear rows: ``(p(q + h e_i) − p(q − h e_i)) / 2h``; angular rows:

@@ -4,8 +4,10 @@
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping, Sequence
 
+import mujoco
 import numpy as np
 
 from ...errors import InputError
@@ -225,7 +227,7 @@ def _body_lines(chain: Chain, *, radius: float, site: str, gravity_compensation:
     return lines
 
 
-def compile_mjcf(model_or_xml):
+def compile_mjcf(model_or_xml: mujoco.MjModel | str | os.PathLike[str] | None) -> mujoco.MjModel:
     """An ``MjModel`` from an ``MjModel`` (returned as is), MJCF text or a file path.
 
     Text and files go through `ratectl.Chain.from_mjcf`'s safety

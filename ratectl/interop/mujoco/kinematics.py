@@ -4,13 +4,19 @@ chain-compatible kinematics source backed by a ``mink.Configuration``.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ...errors import InputError
 from ...io.mjcf import mjcf_joint_addresses
 from ...kinematics import check_frame, refer_jacobian
 from ...model import Chain
+
+if TYPE_CHECKING:
+    import mink
 
 __all__ = ['mujoco_fk_jacobian', 'MinkKinematics']
 
@@ -30,7 +36,8 @@ def _frame_id(model, frame: str, frame_type: str) -> int:
     return i
 
 
-def mujoco_fk_jacobian(model, data, chain: Chain, q, *, frame: str, frame_type: str = "site"):
+def mujoco_fk_jacobian(model: mujoco.MjModel, data: mujoco.MjData, chain: Chain, q: ArrayLike, *,
+                       frame: str, frame_type: str = "site") -> tuple[np.ndarray, np.ndarray]:
     """MuJoCo's pose (4×4) and Jacobian (6×n, ratectl conventions) of a site or body at q.
 
     Sets the chain's joints of ``data.qpos`` to ``q`` (other joints keep their value),
@@ -80,7 +87,7 @@ class MinkKinematics:
         chain: the ratectl chain of the arm (joint names must match the model's).
     """
 
-    def __init__(self, configuration, *, frame: str, frame_type: str = "site",
+    def __init__(self, configuration: mink.Configuration, *, frame: str, frame_type: str = "site",
                  chain: Chain | None = None) -> None:
         import mink
 
@@ -110,7 +117,7 @@ class MinkKinematics:
         return (f"MinkKinematics(frame={self.frame!r}, frame_type={self.frame_type!r}, "
                 f"chain={self.chain!r})")
 
-    def update(self, q) -> None:
+    def update(self, q: ArrayLike) -> None:
         """Set the chain joints to q (n,) and run mink's forward kinematics."""
         qfull = np.array(self.configuration.data.qpos, dtype=float)
         qfull[self.qpos_indices] = q
@@ -127,7 +134,8 @@ class MinkKinematics:
         J[3:] = R @ BJ[3:]
         return T, J
 
-    def fk_jacobian(self, q, *, frame: str = "base", point=None):
+    def fk_jacobian(self, q: ArrayLike, *, frame: str = "base",
+                    point: ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(T_world_frame, J)`` from MuJoCo via mink; ``frame``/``point`` as in
         `ratectl.Chain.jacobian`."""
         a = self.chain.check_q(q)
@@ -143,15 +151,15 @@ class MinkKinematics:
             J = refer_jacobian(J, T, frame, point)
         return T, J
 
-    def fk(self, q) -> np.ndarray:
+    def fk(self, q: ArrayLike) -> np.ndarray:
         """Pose of the frame in the world (..., 4, 4), from MuJoCo."""
         return self.fk_jacobian(q)[0]
 
-    def jacobian(self, q, *, frame: str = "base", point=None) -> np.ndarray:
+    def jacobian(self, q: ArrayLike, *, frame: str = "base", point: ArrayLike | None = None) -> np.ndarray:
         """Geometric Jacobian (..., 6, n) in ratectl's conventions, from mink/MuJoCo."""
         return self.fk_jacobian(q, frame=frame, point=point)[1]
 
-    def body_jacobian(self, q) -> np.ndarray:
+    def body_jacobian(self, q: ArrayLike) -> np.ndarray:
         """mink's own body-frame Jacobian ᴮJ (6, n) at q (for cross-checks)."""
         self.update(q)
         return self.configuration.get_frame_jacobian(self.frame, self.frame_type)[:, self.dof_indices]

@@ -6,19 +6,31 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ...errors import InputError, SolverError
 from .kinematics import MinkKinematics
+
+if TYPE_CHECKING:
+    import mink
+
+    from ...model.chain import Chain
+    from ...model.limits import Limits
+    from ...solvers.base import SolveResult
+    from ...solvers.qp import QP
 
 __all__ = ['mink_inequalities', 'MinkLimitedSolver', 'geom_distance']
 
 
 # ---------------------------------------------------------------------- mink limits
-def mink_inequalities(limits, configuration, *, dt: float, dofs=None,
-                      keep_inactive: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def mink_inequalities(limits: Sequence[Any], configuration: mink.Configuration, *, dt: float,
+                      dofs: ArrayLike | None = None, keep_inactive: bool = False) -> tuple[np.ndarray,
+                      np.ndarray]:
     """Velocity-level rows ``G q̇ ≤ h`` [rad/s or m/s on the left] from mink limits.
 
     mink's ``compute_qp_inequalities(configuration, dt)`` returns rows
@@ -78,7 +90,8 @@ def mink_inequalities(limits, configuration, *, dt: float, dofs=None,
     return np.vstack(Gs), np.concatenate(hs)
 
 
-def geom_distance(model, data, pairs, *, distmax: float = 1.0) -> float:
+def geom_distance(model: mujoco.MjModel, data: mujoco.MjData, pairs: Sequence[tuple[str, str]], *,
+                  distmax: float = 1.0) -> float:
     """Smallest signed distance [m] over geom pairs (names or ids) at ``data``'s state
     (``mj_geomDistance``; capped at ``distmax``)."""
     best = distmax
@@ -118,7 +131,7 @@ class MinkLimitedSolver:
 
     method = "qp+mink"
 
-    def __init__(self, kinematics: MinkKinematics, limits, *, solver=None,
+    def __init__(self, kinematics: MinkKinematics, limits: Sequence[Any], *, solver: QP | None = None,
                  drop_acceleration_on_conflict: bool = True) -> None:
         if not isinstance(kinematics, MinkKinematics):
             raise InputError("kinematics must be a ratectl.mujoco.MinkKinematics",
@@ -138,7 +151,9 @@ class MinkLimitedSolver:
             raise AttributeError(name)
         return getattr(self.__dict__["solver"], name)
 
-    def solve(self, J, xi, *, limits=None, q=None, qd_prev=None, dt=None, **options):
+    def solve(self, J: ArrayLike, xi: ArrayLike, *, limits: Limits | Chain | None = None,
+              q: ArrayLike | None = None, qd_prev: ArrayLike | None = None, dt: float | None = None,
+              **options: Any) -> SolveResult:
         if q is None or dt is None:
             raise InputError("MinkLimitedSolver needs q and dt (the mink limits depend on the "
                              "configuration and the step)", argument="q", value=q)

@@ -5,9 +5,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ...control import ResolvedRateController
 from ...errors import InputError
@@ -18,6 +22,9 @@ from ...spatial import pose_error
 from .export import compile_mjcf, to_mjcf
 from .kinematics import _frame_id
 from .limits import geom_distance
+
+if TYPE_CHECKING:
+    from ...paths.base import Path
 
 __all__ = ['simulate', 'SimulationLog', 'render_frames', 'ACTUATIONS']
 
@@ -89,8 +96,9 @@ def _servo_period(model, data, act_ids, q, qd_cmd, ff, nsub: int, actuation: str
 class _Reference:
     """Desired pose and feed-forward twist over time, from a path or a list of poses."""
 
-    def __init__(self, path_or_targets, *, position_tolerance, orientation_tolerance) -> None:
-        p = path_or_targets
+    def __init__(self, path_or_targets: Any, *, position_tolerance: float,
+                 orientation_tolerance: float) -> None:
+        p = path_or_targets  # duck-typed: a path, a recorded Execution, or poses
         self.path = None
         self.replay = None
         if all(hasattr(p, a) for a in ("pose", "twist", "duration")):
@@ -120,7 +128,7 @@ class _Reference:
         self.ptol = position_tolerance
         self.rtol = orientation_tolerance
 
-    def at(self, t: float, T_actual: np.ndarray):
+    def at(self, t: float, T_actual: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """(desired pose, feed-forward twist or None, joint feed-forward or None) at time t;
         advances through targets."""
         if self.path is not None:
@@ -141,7 +149,7 @@ class _Reference:
             raise InputError("no target poses to follow", argument="path_or_targets")
         return self.poses
 
-    def reached(self, T_actual) -> bool:
+    def reached(self, T_actual: ArrayLike) -> bool:
         e = pose_error(self._targets[self.index], T_actual)
         return bool(np.linalg.norm(e[:3]) <= self.ptol and np.linalg.norm(e[3:]) <= self.rtol)
 
@@ -167,7 +175,8 @@ def _cmd_attr(cmd, *names, default=math.nan):
 class SimulationLog:
     """What `simulate` measured besides the execution record (arrays over steps)."""
 
-    def __init__(self, *, qd_command, tau, min_distance, substeps, actuation, physics):
+    def __init__(self, *, qd_command: Any, tau: Any, min_distance: Any, substeps: Any, actuation: Any,
+                 physics: Any) -> None:
         self.qd_command = qd_command
         self.tau = tau
         self.min_distance = min_distance
@@ -180,11 +189,14 @@ class SimulationLog:
                 f"substeps={self.substeps}, steps={len(self.qd_command)})")
 
 
-def simulate(model_or_xml, chain: Chain, path_or_targets, q0, *, dt: float, controller=None,
-             actuation: str = "position", frame: str = "tool", frame_type: str = "site",
-             duration: float | None = None, settle: float = 0.0, physics: bool = True,
-             distance_pairs=None, position_tolerance: float = 1e-3,
-             orientation_tolerance: float = 1e-2, on_step=None):
+def simulate(model_or_xml: mujoco.MjModel | str | os.PathLike[str] | None, chain: Chain,
+             path_or_targets: Path | Execution | ArrayLike, q0: ArrayLike, *, dt: float,
+             controller: ResolvedRateController | None = None, actuation: str = "position",
+             frame: str = "tool", frame_type: str = "site", duration: float | None = None,
+             settle: float = 0.0, physics: bool = True, distance_pairs: Sequence[tuple[str,
+             str]] | None = None, position_tolerance: float = 1e-3, orientation_tolerance: float = 1e-2,
+             on_step: Callable[[int, mujoco.MjModel, mujoco.MjData],
+             None] | None = None) -> tuple[Execution, SimulationLog]:
     """Run ratectl's controller in closed loop on a MuJoCo model, with physics.
 
     Every control period ``dt``:
@@ -332,8 +344,8 @@ class _Plant:
     ff: np.ndarray | None = None
 
     @classmethod
-    def build(cls, model_or_xml, chain: Chain, *, dt: float, actuation: str, frame: str,
-              frame_type: str, physics: bool) -> _Plant:
+    def build(cls, model_or_xml: mujoco.MjModel | str | os.PathLike[str] | None, chain: Chain, *, dt: float,
+              actuation: str, frame: str, frame_type: str, physics: bool) -> _Plant:
         if actuation not in ACTUATIONS:
             raise InputError(f"actuation must be one of {ACTUATIONS}, got {actuation!r}",
                              argument="actuation", value=actuation)
@@ -393,8 +405,9 @@ class _Plant:
                              self.actuation)
 
 
-def render_frames(model, data, chain: Chain, qs, *, width: int = 480, height: int = 360,
-                  lookat=(0.0, 0.0, 0.3), distance: float = 2.0, azimuth: float = 135.0,
+def render_frames(model: mujoco.MjModel, data: mujoco.MjData, chain: Chain, qs: ArrayLike, *,
+                  width: int = 480, height: int = 360, lookat: Sequence[float] = (0.0, 0.0, 0.3),
+                  distance: float = 2.0, azimuth: float = 135.0,
                   elevation: float = -25.0) -> list[np.ndarray]:
     """Render the arm at each configuration of ``qs`` (k, n) with MuJoCo's offscreen
     renderer; returns k RGB images (height, width, 3) uint8.
