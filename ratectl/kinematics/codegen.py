@@ -438,12 +438,22 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
     names = [f"cq{i}" for i in range(n)] + [f"sq{i}" for i in range(n)]
     names += [f"r{j}" for j in range(regs.count)]
     head.append(f"    ({', '.join(names)},) = W[:{len(names)}]")
-    if any(f"q{i}" in last_use for i in range(n)):  # prismatic joints use q itself
+    # an output that is a joint value itself (a prismatic joint's travel with nothing added,
+    # e.g. the first joint of a chain with d = 0) is defined by no line: copy it from qT
+    defined = {target for target, _ in lines}
+    direct = [(k, v) for k, v in enumerate(outputs)
+              if isinstance(v, str) and v.lstrip("-") not in defined]
+    if any(f"q{i}" in last_use for i in range(n)) or direct:  # prismatic joints use q itself
         head.append(f"    ({', '.join(f'q{i}' for i in range(n))},) = qT")
     head.append(f"    ({', '.join(f'o{k}' for k in range(k_out))},) = O")
     for k, v in enumerate(outputs):
         if not isinstance(v, str):
             body.append(f"    o{k}.fill({float(v)!r})")
+    for k, v in direct:
+        if v.startswith("-"):
+            body.append(f"    negative({v[1:]}, out=o{k})")
+        else:
+            body.append(f"    copyto(o{k}, {v})")
     pre = f"NWORK = {2 * n + max(regs.count, 5 * n)}  # rows of W: cos q, sin q, registers\n"
     if any(phases):
         pre += f"PHASES = array({[[p] for p in phases]!r})  # joint angle offsets [rad]\n"

@@ -248,3 +248,21 @@ def test_random_chains_match_finite_differences(case):
     assert np.max(np.abs(Jb[1] - J)) < 1e-13
     # the generic frame product agrees with the generated kernel
     assert np.max(np.abs(chain.frames(q)[-1] @ chain.tool - chain.fk(q))) < 1e-12
+
+
+@pytest.mark.parametrize("rows", [
+    [rc.DH(joint="prismatic")],
+    [rc.DH(joint="prismatic"), rc.DH(joint="prismatic")],
+    [rc.DH(joint="prismatic", theta=math.pi), rc.DH(joint="revolute")],
+    [rc.DH(joint="revolute"), rc.DH(joint="prismatic")],
+], ids=["P", "PP", "P(theta=pi)R", "RP"])
+def test_outputs_that_are_raw_joint_values_are_written_by_the_batched_kernel(rows):
+    """A pose entry equal to a joint value itself (no line computes it) was left unwritten by the
+    batched kernel: uninitialised memory came back for a bare prismatic joint."""
+    chain = rc.Chain.from_dh(rows)
+    Q = np.random.default_rng(3).uniform(-1.0, 1.0, (7, chain.dof))
+    T, J = chain.fk_jacobian(Q)
+    for i in range(len(Q)):
+        np.testing.assert_array_equal(T[i], chain.fk(Q[i]))
+        np.testing.assert_array_equal(J[i], chain.jacobian(Q[i]))
+    np.testing.assert_allclose(chain.jacobian(Q[0]), numerical_jacobian(chain, Q[0]), atol=1e-7)
