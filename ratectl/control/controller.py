@@ -574,9 +574,11 @@ class ResolvedRateController:
         if self.filter is not None:
             if abs(self.filter.dt - dt) > 1e-15:
                 self.filter.dt = dt
-            if qdd_ff is None and cyc.qdd_ff is not None and cyc.qd is cyc.approach_qd:
-                # the approach's acceleration belongs to its q̇: not to one limited since
-                qdd_ff = cyc.qdd_ff
+            if qdd_ff is None and cyc.qdd_ff is not None and cyc.approach_qd is not None:
+                # the approach's acceleration belongs to its q̇: kept for the joints whose q̇
+                # no limit changed since
+                qdd_ff = (cyc.qdd_ff if cyc.qd is cyc.approach_qd
+                          else np.where(cyc.qd == cyc.approach_qd, cyc.qdd_ff, 0.0))
             try:
                 cyc.q_next, cyc.qd, cyc.qdd = self.filter.update(q, cyc.qd, qdd_ff, independent=cyc.braking)
             except RatectlError as err:
