@@ -21,7 +21,14 @@ from ..base import (
 )
 from ..damped import DLS
 from ..nullspace import _objective
-from .active_set import _box_active_set, _polish, box_qp_exact, kkt_violation, polish_general
+from .active_set import (
+    _box_active_set,
+    _polish,
+    box_qp_exact,
+    kkt_violation,
+    polish_general,
+    qp_via_dual,
+)
 from .bounds import _BIG, _BoundCache, _box, _sources, _vec
 from .warm_osqp import _OSQP_DEFAULTS, _WarmOSQP
 
@@ -266,6 +273,10 @@ class QP(Solver):
                         qd = polish_general(P, b, lo_, hi_, G, h, np.array(x))
                         if qd is not None:
                             status, niter, exact = "solved (retry)", it2, True
+                    if qd is None:  # the exact answer through the dual (a box QP)
+                        qd = qp_via_dual(P, b, lo_, hi_, G, h)
+                        if qd is not None:
+                            status, niter, exact = "exact-dual", -1, True
                 if qd is None:
                     if not self.fallback:
                         raise
