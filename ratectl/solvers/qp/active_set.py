@@ -270,7 +270,7 @@ def polish_general(P, b, lo, hi, G, h, x, *, tol_act: float = 1e-6):
 
 def qp_via_dual(P, b, lo, hi, G, h):
     """The exact minimiser of ½xᵀPx − bᵀx s.t. lo ≤ x ≤ hi, G x ≤ h (P positive definite)
-    through its dual, a bound-constrained QP solved by :func:`box_qp_exact`; or None.
+    through its dual, a bound-constrained QP solved by `box_qp_exact`; or None.
 
     With every constraint written a_iᵀx ≤ c_i (A, c), stationarity gives
     x(μ) = P⁻¹(b − Aᵀμ) and the dual is min_{μ ≥ 0} ½μᵀ(AP⁻¹Aᵀ)μ − μᵀ(AP⁻¹b − c): a QP over a
