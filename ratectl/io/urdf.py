@@ -83,7 +83,7 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
         if p_el is None or c_el is None or not p_el.get("link") or not c_el.get("link"):
             raise ImportModelError(f"{label}: {what} needs <parent link=...> and <child link=...>",
                                    element=what)
-        parent, child = p_el.get("link"), c_el.get("link")
+        parent, child = str(p_el.get("link")), str(c_el.get("link"))  # both checked non-empty above
         for role, lk in (("parent", parent), ("child", child)):
             if lk not in links:
                 raise ImportModelError(f"{label}: {what} refers to {role} link {lk!r}, which is "
@@ -98,7 +98,10 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
 
     def parent_of(link: str) -> str | None:
         j = parent_joint.get(link)
-        return None if j is None else joints[j].find("parent").get("link")
+        if j is None:
+            return None
+        parent_el = joints[j].find("parent")
+        return None if parent_el is None else parent_el.get("link")
 
     if not links:
         raise ImportModelError(f"{label}: the robot has no <link> elements; a URDF chain needs links "
@@ -144,7 +147,10 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
             raise ImportModelError(f"{label}: tip {tip!r} is not below base_link {base_link!r}",
                                    element=f"link {tip!r}")
         path_joints.append(j)
-        link = parent_of(link)
+        up = parent_of(link)
+        if up is None:  # pragma: no cover - every joint on the path was checked to have a parent
+            break
+        link = up
     path_joints.reverse()
     if auto_tip:
         _refuse_end_effector_joint(label, path_joints, joints, tip)
@@ -167,9 +173,9 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
         if jtype == "fixed":
             A = A @ O
             continue
-        if el.find("mimic") is not None:
+        if (mimic := el.find("mimic")) is not None:
             raise ImportModelError(
-                f"{label}: {what} mimics joint {el.find('mimic').get('joint')!r}: coupled (mimic) "
+                f"{label}: {what} mimics joint {mimic.get('joint')!r}: coupled (mimic) "
                 "joints are not supported on the chain; choose a tip that excludes it", element=what)
         ax_el = el.find("axis")
         axis = floats(None if ax_el is None else ax_el.get("xyz"), 3, default=[1.0, 0.0, 0.0],

@@ -259,6 +259,7 @@ def _reason(kind, report_bits, J, geo, st: ArmStructure, L) -> str:
                     f"({6 - report_bits['rank']} are unreachable at this q)")
         return txt
     if kind == _WRIST:
+        assert st.wrist is not None  # the wrist kind is only given to arms with a spherical wrist
         a, b, k = st.wrist
         pairs = [(a, b), (a, k), (b, k)]
         sines = [float(np.linalg.norm(np.cross(z[p], z[r]))) for p, r in pairs]
@@ -270,6 +271,7 @@ def _reason(kind, report_bits, J, geo, st: ArmStructure, L) -> str:
         off = "" if ang < 1e-6 else f", {ang:.3g}° from it"
         return f"{pre} wrist: axes of joints {p + 1} and {r + 1} are {how}{off}; lost: {lost}"
     if kind == _ELBOW:
+        assert st.elbow is not None  # the elbow kind is only given to arms with an elbow pair
         a, b = st.elbow
         state = "stretched" if geo["elbow_stretched"] else "folded"
         ang = math.degrees(math.asin(min(1.0, float(geo["elbow"]))))
@@ -281,8 +283,8 @@ def _reason(kind, report_bits, J, geo, st: ArmStructure, L) -> str:
                 f"upper arm and forearm are aligned ({state}{off}; the wrist is on {where} boundary "
                 f"of its reach); lost: {lost}")
     if kind == _SHOULDER:
-        off = abs(float(geo["shoulder_offset"]))
-        dist = "in" if off < 1e-9 else f"{off * 1e3:.3g} mm from"
+        offset = abs(float(geo["shoulder_offset"]))
+        dist = "in" if offset < 1e-9 else f"{offset * 1e3:.3g} mm from"
         return (f"{pre} shoulder: the wrist point lies {dist} the plane through the "
                 f"axis of joint 1 parallel to the axis of joint 2 (the wrist is over the shoulder); "
                 f"joint 1 cannot move it sideways; lost: {lost}")

@@ -92,8 +92,8 @@ def workspace_map(chain, *, joints: tuple[int, int] | None = None, plane: str | 
         base = np.clip(np.zeros(n), lo, hi) if q is None else chain.check_q(q).copy()
         if ranges is None:
             ranges = ((max(lo[i], -np.pi), min(hi[i], np.pi)), (max(lo[j], -np.pi), min(hi[j], np.pi)))
-        x = np.linspace(*ranges[0], resolution)
-        y = np.linspace(*ranges[1], resolution)
+        x = np.linspace(float(ranges[0][0]), float(ranges[0][1]), resolution)
+        y = np.linspace(float(ranges[1][0]), float(ranges[1][1]), resolution)
         Q = np.broadcast_to(base, (resolution, resolution, n)).copy()
         Q[..., i] = x[None, :]
         Q[..., j] = y[:, None]
@@ -113,8 +113,8 @@ def workspace_map(chain, *, joints: tuple[int, int] | None = None, plane: str | 
     if ranges is None:
         base_p = chain.base[:3, 3]
         ranges = ((base_p[ax0] - R, base_p[ax0] + R), (base_p[ax1] - R, base_p[ax1] + R))
-    x = np.linspace(*ranges[0], resolution)
-    y = np.linspace(*ranges[1], resolution)
+    x = np.linspace(float(ranges[0][0]), float(ranges[0][1]), resolution)
+    y = np.linspace(float(ranges[1][0]), float(ranges[1][1]), resolution)
     grid = np.full((resolution, resolution), -np.inf)
     gen = np.random.default_rng(rng)
     chunk = 100_000
