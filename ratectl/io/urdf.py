@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -61,7 +62,42 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
     if root.tag != "robot":
         raise ImportModelError(f"{label}: the root element must be <robot>, got <{root.tag}>",
                                element=f"<{root.tag}>")
-    links: set[str] = set()
+    tree = _read_tree(root, label)
+    base_link = _choose_base(tree, base_link, label)
+    auto_tip = tip is None
+    tip = _choose_tip(tree, base_link, tip, label)
+    path_joints = _path(tree, base_link, tip, label)
+    if auto_tip:
+        _refuse_end_effector_joint(label, path_joints, tree.joints, tip)
+    chain_joints, A = _describe_joints(tree, path_joints, label)
+    if not chain_joints:
+        raise ImportModelError(f"{label}: no revolute, continuous or prismatic joint between "
+                               f"{base_link!r} and {tip!r}", element=f"link {tip!r}")
+    rname = name if name is not None else (root.get("name") or "urdf")
+    return ModelDescription(joints=tuple(chain_joints), tool=A, name=rname, label=label)
+
+
+@dataclass
+class _Tree:
+    """The kinematic tree of a URDF: link names, joint elements by name, and the links' relations."""
+
+    links: set[str] = field(default_factory=set)
+    joints: dict[str, ET.Element] = field(default_factory=dict)
+    parent_joint: dict[str, str] = field(default_factory=dict)  # child link -> joint name
+    children: dict[str, list[str]] = field(default_factory=dict)  # parent link -> child links
+
+    def parent_of(self, link: str) -> str | None:
+        j = self.parent_joint.get(link)
+        if j is None:
+            return None
+        parent_el = self.joints[j].find("parent")
+        return None if parent_el is None else parent_el.get("link")
+
+
+def _read_tree(root: ET.Element, label: str) -> _Tree:
+    """Links and joints of ``<robot>``, checked to form a tree with defined links."""
+    tree = _Tree()
+    links = tree.links
     for el in root.findall("link"):
         lname = el.get("name")
         if not lname:
@@ -69,15 +105,12 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
         if lname in links:
             raise ImportModelError(f"{label}: link {lname!r} is defined twice", element=f"link {lname!r}")
         links.add(lname)
-    joints: dict[str, ET.Element] = {}
-    parent_joint: dict[str, str] = {}      # child link -> joint name
-    children: dict[str, list[str]] = {}     # parent link -> child links
     for el in root.findall("joint"):
         jname = el.get("name")
         if not jname:
             raise ImportModelError(f"{label}: a <joint> has no name attribute", element="joint")
         what = f"joint {jname!r}"
-        if jname in joints:
+        if jname in tree.joints:
             raise ImportModelError(f"{label}: {what} is defined twice", element=what)
         p_el, c_el = el.find("parent"), el.find("child")
         if p_el is None or c_el is None or not p_el.get("link") or not c_el.get("link"):
@@ -88,52 +121,55 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
             if lk not in links:
                 raise ImportModelError(f"{label}: {what} refers to {role} link {lk!r}, which is "
                                        "not defined by any <link>", element=what)
-        if child in parent_joint:
+        if child in tree.parent_joint:
             raise ImportModelError(
-                f"{label}: link {child!r} is the child of two joints ({parent_joint[child]!r} and "
+                f"{label}: link {child!r} is the child of two joints ({tree.parent_joint[child]!r} and "
                 f"{jname!r}); a URDF must be a tree", element=what)
-        joints[jname] = el
-        parent_joint[child] = jname
-        children.setdefault(parent, []).append(child)
-
-    def parent_of(link: str) -> str | None:
-        j = parent_joint.get(link)
-        if j is None:
-            return None
-        parent_el = joints[j].find("parent")
-        return None if parent_el is None else parent_el.get("link")
-
+        tree.joints[jname] = el
+        tree.parent_joint[child] = jname
+        tree.children.setdefault(parent, []).append(child)
     if not links:
         raise ImportModelError(f"{label}: the robot has no <link> elements; a URDF chain needs links "
                                "connected by joints", element="robot")
-    roots = sorted(lk for lk in links if lk not in parent_joint)
+    return tree
+
+
+def _choose_base(tree: _Tree, base_link: str | None, label: str) -> str:
+    roots = sorted(lk for lk in tree.links if lk not in tree.parent_joint)
     if base_link is None:
         if len(roots) != 1:
             raise ImportModelError(
                 f"{label}: the links do not form a single tree: roots {roots}; pass base_link= "
                 "one of them" if roots else f"{label}: every link has a parent joint (a cycle)",
                 element=f"link {roots[0]!r}" if roots else "joint")
-        base_link = roots[0]
-    elif base_link not in links:
+        return roots[0]
+    if base_link not in tree.links:
         raise ImportModelError(f"{label}: base_link {base_link!r} is not a link of this robot; links: "
-                               f"{sorted(links)}", element=f"link {base_link!r}")
-    auto_tip = tip is None
-    if tip is None:
-        tip = base_link
-        while True:
-            kids = children.get(tip, [])
-            if not kids:
-                break
-            if len(kids) > 1:
-                leaves = _leaves(tip, children)
-                raise ImportModelError(
-                    f"{label}: the chain branches at link {tip!r} into {sorted(kids)}; pass tip= one "
-                    f"of the leaf links {leaves} to choose the serial chain", element=f"link {tip!r}")
-            tip = kids[0]
-    elif tip not in links:
-        raise ImportModelError(f"{label}: tip {tip!r} is not a link of this robot; links: "
-                               f"{sorted(links)}", element=f"link {tip!r}")
-    # the path base_link -> tip, from the tip upwards
+                               f"{sorted(tree.links)}", element=f"link {base_link!r}")
+    return base_link
+
+
+def _choose_tip(tree: _Tree, base_link: str, tip: str | None, label: str) -> str:
+    if tip is not None:
+        if tip not in tree.links:
+            raise ImportModelError(f"{label}: tip {tip!r} is not a link of this robot; links: "
+                                   f"{sorted(tree.links)}", element=f"link {tip!r}")
+        return tip
+    tip = base_link
+    while True:
+        kids = tree.children.get(tip, [])
+        if not kids:
+            return tip
+        if len(kids) > 1:
+            leaves = _leaves(tip, tree.children)
+            raise ImportModelError(
+                f"{label}: the chain branches at link {tip!r} into {sorted(kids)}; pass tip= one "
+                f"of the leaf links {leaves} to choose the serial chain", element=f"link {tip!r}")
+        tip = kids[0]
+
+
+def _path(tree: _Tree, base_link: str, tip: str, label: str) -> list[str]:
+    """Joint names on the path base_link → tip, in that order."""
     path_joints: list[str] = []
     link = tip
     seen = set()
@@ -142,23 +178,26 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
             raise ImportModelError(f"{label}: the joints form a cycle through link {link!r}",
                                    element=f"link {link!r}")
         seen.add(link)
-        j = parent_joint.get(link)
+        j = tree.parent_joint.get(link)
         if j is None:
             raise ImportModelError(f"{label}: tip {tip!r} is not below base_link {base_link!r}",
                                    element=f"link {tip!r}")
         path_joints.append(j)
-        up = parent_of(link)
+        up = tree.parent_of(link)
         if up is None:  # pragma: no cover - every joint on the path was checked to have a parent
             break
         link = up
     path_joints.reverse()
-    if auto_tip:
-        _refuse_end_effector_joint(label, path_joints, joints, tip)
+    return path_joints
 
+
+def _describe_joints(tree: _Tree, path_joints: list[str],
+                     label: str) -> tuple[list[JointDescription], np.ndarray]:
+    """The moving joints of the path in general form, and the constant transform after the last."""
     chain_joints: list[JointDescription] = []
     A = np.eye(4)
     for jname in path_joints:
-        el = joints[jname]
+        el = tree.joints[jname]
         what = f"joint {jname!r}"
         jtype = el.get("type")
         if jtype in _URDF_UNSUPPORTED:
@@ -179,17 +218,13 @@ def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
                 "joints are not supported on the chain; choose a tip that excludes it", element=what)
         ax_el = el.find("axis")
         axis = floats(None if ax_el is None else ax_el.get("xyz"), 3, default=[1.0, 0.0, 0.0],
-                       what=f"{what} <axis xyz>")
+                      what=f"{what} <axis xyz>")
         axis = unit_axis(axis, what)
         qlim, vmax = _urdf_limits(el, jtype, what, label)
-        chain_joints.append(movable_joint(_URDF_MOVABLE[jtype], A @ O, axis, name=jname,
-                                           qlim=qlim, vmax=vmax, what=what))
+        chain_joints.append(movable_joint(_URDF_MOVABLE[str(jtype)], A @ O, axis, name=jname,
+                                          qlim=qlim, vmax=vmax, what=what))
         A = np.eye(4)
-    if not chain_joints:
-        raise ImportModelError(f"{label}: no revolute, continuous or prismatic joint between "
-                               f"{base_link!r} and {tip!r}", element=f"link {tip!r}")
-    rname = name if name is not None else (root.get("name") or "urdf")
-    return ModelDescription(joints=tuple(chain_joints), tool=A, name=rname, label=label)
+    return chain_joints, A
 
 
 _END_EFFECTOR_WORDS = re.compile(r"finger|gripper|jaw|knuckle|claw|grasp|suction", re.IGNORECASE)
