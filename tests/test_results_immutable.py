@@ -58,6 +58,19 @@ def _results():
     yield "ik", rc.ik(arm, arm.fk(q), q)
     yield "limits", rc.Limits.of(arm, 6)
     yield "bounds", rc.solvers.joint_velocity_bounds(arm, q=q, dt=1e-3)
+    ctrl = rc.ResolvedRateController(arm)
+    T = arm.fk(q)
+    T[:3, 3] += 0.01
+    yield "command", ctrl.step(q, target=T, dt=1e-3)
+    line = rc.paths.Line(arm.fk(q), T, speed=0.1, acceleration=1.0)
+    run = rc.follow(arm, line, q, dt=4e-3)
+    yield "execution", run
+    yield "governor plan", run.info["plan"]
+    yield "joint path", run.info["plan"].joint_path
+    yield "joint trajectory", rc.control.move(q, q + 0.01, vmax=arm.vmax, amax=arm.amax, jmax=arm.jmax)
+    from ratectl.drivers import ScriptedDriver
+
+    yield "robot state", ScriptedDriver(arm, q).read()
     yield "urdf description", rc.io.parse_urdf(
         '<robot name="r"><link name="a"/><link name="b"/><joint name="j" type="continuous">'
         '<parent link="a"/><child link="b"/></joint></robot>')

@@ -21,7 +21,7 @@ calls are made, which run locally.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -218,18 +218,26 @@ class ProgressProfile:
         return self._out.new_velocity[0], self._out.new_acceleration[0]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class JointTrajectory:
     """A jerk-limited joint trajectory computed by Ruckig (state to state).
 
     Attributes:
-        duration: [s]; start, goal: (n,) joint positions.
+        duration: [s].
+        start: (n,) joint positions at t = 0 (read-only).
+        goal: (n,) joint positions at the end (read-only).
     """
 
     duration: float
     start: np.ndarray
     goal: np.ndarray
-    _traj: Any
+    _traj: Any = field(repr=False)
+
+    def __post_init__(self) -> None:
+        for name in ("start", "goal"):
+            a = np.array(getattr(self, name), dtype=float)
+            a.flags.writeable = False
+            object.__setattr__(self, name, a)
 
     def at(self, t: float):
         """``(q, q̇, q̈)`` at time ``t`` [s] (clamped to [0, duration])."""
@@ -277,7 +285,7 @@ def move(q_start, q_goal, *, vmax, amax, jmax, qd_start=None, qdd_start=None) ->
     inp.max_acceleration = _limit_array(amax, n, "amax").tolist()
     inp.max_jerk = _limit_array(jmax, n, "jmax").tolist()
     traj = _calculate(inp, n, "the joint move", {"q_start": q0, "q_goal": q1})
-    return JointTrajectory(float(traj.duration), q0.copy(), q1.copy(), traj)
+    return JointTrajectory(duration=float(traj.duration), start=q0, goal=q1, _traj=traj)
 
 
 def _calculate(inp, n: int, what: str, problem: dict):
@@ -310,4 +318,4 @@ def stop(q, qd, *, qdd=None, amax, jmax) -> JointTrajectory:
     inp.max_jerk = _limit_array(jmax, n, "jmax").tolist()
     traj = _calculate(inp, n, "the stop", {"q": q, "qd": qd})
     p_end = np.array(traj.at_time(traj.duration)[0])
-    return JointTrajectory(float(traj.duration), q.copy(), p_end, traj)
+    return JointTrajectory(duration=float(traj.duration), start=q, goal=p_end, _traj=traj)
