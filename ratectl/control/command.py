@@ -5,11 +5,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import RatectlError
 from ..singularity import analyze
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = ["Command", "STATUSES", "make_command"]
 
@@ -116,7 +121,7 @@ def _readonly(a) -> np.ndarray:
     return a
 
 
-def make_command(*, chain=None, q=None, **fields) -> Command:
+def make_command(*, chain: Chain | None = None, q: ArrayLike | None = None, **fields: Any) -> Command:
     """A `Command` from the controller's freshly computed arrays, which it owns
     (they are made read-only in place, not copied — the controller keeps no reference to
     them): the fast path of one control cycle (the dataclass ``__init__`` costs ~4 µs).

@@ -34,9 +34,10 @@ errors and raise `InputError` at once.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import solvers
 from ..errors import InputError, RatectlError, SingularityError
@@ -49,6 +50,10 @@ from ..model.limits import (
 from ..spatial import pose_error_into, rigid_transform_defect
 from .command import _RANK, STATUSES, Command, make_command
 from .smoothing import ProgressProfile, VelocityFilter
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+    from ..solvers.base import Solver
 
 __all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver"]
 
@@ -120,7 +125,8 @@ class ResolvedRateController:
             "singular" rather than "velocity-scaled".
     """
 
-    def __init__(self, chain, *, solver=None, gain=10.0, limits="chain", smoothing=False,
+    def __init__(self, chain: Chain, *, solver: Solver | None = None, gain: float = 10.0,
+                 limits: Limits | Chain | str | None = "chain", smoothing: bool = False,
                  position_tolerance: float = 1e-4, orientation_tolerance: float = 1e-3,
                  timeout: float = 0.1, singular_sigma: float = 0.02) -> None:
 
@@ -210,7 +216,7 @@ class ResolvedRateController:
                                  value=a)
 
     # ------------------------------------------------------------------ state
-    def reset(self, qd=None) -> None:
+    def reset(self, qd: ArrayLike | None = None) -> None:
         """Forget the state: previous q̇ (default zero), halt latch, clock, smoother state."""
         self._qd = np.zeros(self._n) if qd is None else np.asarray(qd, dtype=float).copy()
         self._qdd = np.zeros(self._n)
@@ -236,7 +242,9 @@ class ResolvedRateController:
         return bool(self._latched)
 
     # ------------------------------------------------------------------ the cycle
-    def step(self, q, *, target=None, twist=None, dt, qd_ff=None, qdd_ff=None, stamp=None) -> Command:
+    def step(self, q: ArrayLike, *, target: ArrayLike | None = None, twist: ArrayLike | None = None,
+             dt: float, qd_ff: ArrayLike | None = None, qdd_ff: ArrayLike | None = None,
+             stamp: float | None = None) -> Command:
         """One control cycle (see the module docstring): the stages
         `_validate` → `_halt_reason` → `_error` → `_solve` →
         `_limit` → `_smooth` → `_command`.
@@ -254,7 +262,11 @@ class ResolvedRateController:
             stamp: when the target was produced, on the controller clock ``ctrl.time`` [s];
                 older than ``timeout`` → halt (stale target).
         """
-        q, target, twist, dt, qd_ff = self._validate(q, target, twist, dt, qd_ff)
+        return self._cycle(*self._validate(q, target, twist, dt, qd_ff), qdd_ff, stamp)
+
+    def _cycle(self, q: np.ndarray, target: np.ndarray | None, twist: np.ndarray | None, dt: float,
+               qd_ff: np.ndarray | None, qdd_ff: ArrayLike | None, stamp: float | None) -> Command:
+        """`step` after validation: the stages on float arrays."""
         halt = self._halt_reason(q, target, twist, dt, qd_ff, stamp)
         if halt is not None:
             return halt
@@ -277,7 +289,9 @@ class ResolvedRateController:
         return self._command(cyc, q, dt)
 
     # --- stage 1: validation (shapes raise, values halt)
-    def _validate(self, q, target, twist, dt, qd_ff):
+    def _validate(self, q: ArrayLike, target: ArrayLike | None, twist: ArrayLike | None, dt: float,
+                  qd_ff: ArrayLike | None) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None,
+                                                    float, np.ndarray | None]:
         """Shapes and types: returns ``(q, target, twist, dt, qd_ff)`` as float arrays
         (the caller's arrays are not copied when already float64) or raises
         `InputError`. Values (NaN, inf) are not checked here."""

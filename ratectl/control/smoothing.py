@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError, SolverError
 
@@ -58,7 +59,7 @@ class VelocityFilter:
         jmax: (n,) or scalar jerk limits.
     """
 
-    def __init__(self, dof: int, *, dt: float, vmax, amax, jmax) -> None:
+    def __init__(self, dof: int, *, dt: float, vmax: ArrayLike, amax: ArrayLike, jmax: ArrayLike) -> None:
         import ruckig
 
         self._ruckig = ruckig
@@ -94,7 +95,7 @@ class VelocityFilter:
         self._otg.delta_time = float(value)
         self._inp.minimum_duration = float(value)
 
-    def reset(self, qd=None, qdd=None) -> None:
+    def reset(self, qd: ArrayLike | None = None, qdd: ArrayLike | None = None) -> None:
         """Set the filter state (default: at rest)."""
         z = [0.0] * self.dof
         self._inp.current_velocity = z if qd is None else np.asarray(qd, dtype=float).tolist()
@@ -118,7 +119,8 @@ class VelocityFilter:
     def acceleration(self) -> np.ndarray:
         return np.array(self._inp.current_acceleration)
 
-    def update(self, q, qd_target, qdd_target=None, *, independent=None):
+    def update(self, q: np.ndarray, qd_target: np.ndarray, qdd_target: np.ndarray | None = None, *,
+               independent: np.ndarray | None = None):
         """One period: returns ``(q_next, qd, qdd)`` of the jerk-limited motion from ``q``.
 
         The joints are time-synchronised (they reach the target velocity together, so the
@@ -254,7 +256,8 @@ class JointTrajectory:
         return t, q, qd, qdd
 
 
-def move(q_start, q_goal, *, vmax, amax, jmax, qd_start=None, qdd_start=None) -> JointTrajectory:
+def move(q_start: ArrayLike, q_goal: ArrayLike, *, vmax: ArrayLike, amax: ArrayLike, jmax: ArrayLike,
+         qd_start: ArrayLike | None = None, qdd_start: ArrayLike | None = None) -> JointTrajectory:
     """Time-optimal, jerk-limited, synchronised joint move to ``q_goal`` at rest (Ruckig position
     interface, one segment — never intermediate waypoints).
 
@@ -299,7 +302,8 @@ def _calculate(inp, n: int, what: str, problem: dict):
     return traj
 
 
-def stop(q, qd, *, qdd=None, amax, jmax) -> JointTrajectory:
+def stop(q: ArrayLike, qd: ArrayLike, *, qdd: ArrayLike | None = None, amax: ArrayLike,
+         jmax: ArrayLike) -> JointTrajectory:
     """The jerk-limited motion that brings the state ``(q, q̇, q̈)`` to rest as fast as the limits
     allow (Ruckig velocity interface with target velocity 0); all joints synchronised."""
     import ruckig

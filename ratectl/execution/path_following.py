@@ -18,8 +18,10 @@ After the schedule ends the controller keeps the end pose as target for at most
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..control import ResolvedRateController, move
 from ..errors import InputError
@@ -28,11 +30,15 @@ from ..planning import Governor, ik
 from ..spatial import pose_error, rotation_angle
 from .record import Execution
 
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+
 __all__ = ["follow"]
 
 
-def follow(chain, path, q0, *, dt: float, controller=None, governor=True, settle: float = 0.5,
-           tolerance: tuple[float, float] = (1e-4, 1.75e-4),
+def follow(chain: Chain, path: Path, q0: ArrayLike, *, dt: float,
+           controller: ResolvedRateController | None = None, governor: Governor | bool | None = True,
+           settle: float = 0.5, tolerance: tuple[float, float] = (1e-4, 1.75e-4),
            path_tolerance: tuple[float, float] = (5e-5, 1.75e-4), approach: bool = True,
            record_kinds: bool = True) -> Execution:
     """Follow ``path`` with ``chain`` from joint positions ``q0``; returns an `Execution`.

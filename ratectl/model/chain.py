@@ -10,8 +10,11 @@ the chain exposes them as methods.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import kinematics
 from ..errors import ImportModelError, InputError, ModelError
@@ -33,8 +36,9 @@ class Chain:
     `jacobian_dot`, `joint_axes`, `joint_torques`.
     """
 
-    def __init__(self, joints, *, base=None, tool=None, name: str = "chain",
-                 table: tuple | None = None, characteristic_length: float | None = None):
+    def __init__(self, joints: Sequence[Joint], *, base: ArrayLike | None = None,
+                 tool: ArrayLike | None = None, name: str = "chain", table: tuple | None = None,
+                 characteristic_length: float | None = None):
         joints = tuple(joints)
         if not joints:
             raise ModelError("a chain needs at least one joint", field="joints")
@@ -69,7 +73,8 @@ class Chain:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
-    def from_dh(cls, rows, *, base=None, tool=None, name: str = "chain",
+    def from_dh(cls, rows: Sequence[DH], *, base: ArrayLike | None = None,
+                tool: ArrayLike | None = None, name: str = "chain",
                 characteristic_length: float | None = None) -> Chain:
         """Chain from a standard DH table (a list of `DH` rows)."""
         rows = cls._check_rows(rows, DH)
@@ -78,7 +83,8 @@ class Chain:
                    characteristic_length=characteristic_length)
 
     @classmethod
-    def from_mdh(cls, rows, *, base=None, tool=None, name: str = "chain",
+    def from_mdh(cls, rows: Sequence[MDH], *, base: ArrayLike | None = None,
+                 tool: ArrayLike | None = None, name: str = "chain",
                  characteristic_length: float | None = None) -> Chain:
         """Chain from a modified (Craig) DH table (a list of `MDH` rows)."""
         rows = cls._check_rows(rows, MDH)
@@ -101,8 +107,9 @@ class Chain:
         return rows
 
     @classmethod
-    def from_urdf(cls, source, *, tip: str | None = None, base_link: str | None = None,
-                  name: str | None = None, qlim=None, vmax=None, amax=None, jmax=None) -> Chain:
+    def from_urdf(cls, source: Any, *, tip: str | None = None, base_link: str | None = None,
+                  name: str | None = None, qlim: ArrayLike | None = None, vmax: ArrayLike | None = None,
+                  amax: ArrayLike | None = None, jmax: ArrayLike | None = None) -> Chain:
         """Chain from a URDF file path or the URDF text itself (see `ratectl.io.urdf`).
 
         Args:
@@ -121,8 +128,9 @@ class Chain:
         return chain.with_limits(qlim=qlim, vmax=vmax, amax=amax, jmax=jmax)
 
     @classmethod
-    def from_mjcf(cls, path_or_model, *, tip: str | None = None, name: str | None = None,
-                  qlim=None, vmax=None, amax=None, jmax=None) -> Chain:
+    def from_mjcf(cls, path_or_model: Any, *, tip: str | None = None, name: str | None = None,
+                  qlim: ArrayLike | None = None, vmax: ArrayLike | None = None,
+                  amax: ArrayLike | None = None, jmax: ArrayLike | None = None) -> Chain:
         """Chain from an MJCF file, its text, or a compiled ``mujoco.MjModel``
         (see `ratectl.io.mjcf`); ``qlim, vmax, amax, jmax`` set or replace limits
         after import, as in `with_limits`."""
@@ -153,12 +161,13 @@ class Chain:
         except ModelError as exc:
             raise ImportModelError(f"{description.label}: {exc}", element=str(exc.field)) from None
 
-    def with_tool(self, tool) -> Chain:
+    def with_tool(self, tool: ArrayLike) -> Chain:
         """The same chain with another tool transform (flange → tool, 4×4)."""
         return Chain(self._joints, base=self._base, tool=tool, name=self._name,
                      table=self._table, characteristic_length=self._length)
 
-    def with_limits(self, *, qlim=None, vmax=None, amax=None, jmax=None) -> Chain:
+    def with_limits(self, *, qlim: ArrayLike | None = None, vmax: ArrayLike | None = None,
+                    amax: ArrayLike | None = None, jmax: ArrayLike | None = None) -> Chain:
         """The same chain with some limits set or replaced; ``None`` keeps the chain's.
 
         Args:
@@ -206,7 +215,8 @@ class Chain:
         joints = []
         for k, j in enumerate(self._joints):
             try:
-                joints.append(dataclasses.replace(j, **{key: c[k] for key, c in cols.items()}))
+                changes: dict[str, Any] = {key: c[k] for key, c in cols.items()}
+                joints.append(dataclasses.replace(j, **changes))
             except ModelError as exc:
                 raise ModelError(f"{self._name}: joint {k}: {exc}", field=exc.field, joint=k,
                                  value=exc.value) from None
@@ -217,7 +227,7 @@ class Chain:
         return Chain(joints, base=self._base, tool=self._tool, name=self._name, table=table,
                      characteristic_length=self._length)
 
-    def with_base(self, base) -> Chain:
+    def with_base(self, base: ArrayLike) -> Chain:
         """The same chain with another base transform (world → frame 0, 4×4)."""
         return Chain(self._joints, base=base, tool=self._tool, name=self._name,
                      table=self._table, characteristic_length=self._length)
@@ -304,7 +314,7 @@ class Chain:
         return max(total, 1e-3)
 
     # ------------------------------------------------------------------ helpers
-    def check_q(self, q, *, name: str = "q") -> np.ndarray:
+    def check_q(self, q: ArrayLike, *, name: str = "q") -> np.ndarray:
         """Validate ``q`` (shape (..., n), finite) and return it as a float array."""
         try:
             if isinstance(q, str | bytes) or np.iscomplexobj(q):
@@ -322,12 +332,13 @@ class Chain:
                              f"{np.argwhere(~np.isfinite(a))[0].tolist()}", argument=name, value=a)
         return a
 
-    def within_limits(self, q, *, tolerance: float = 0.0) -> np.ndarray:
+    def within_limits(self, q: ArrayLike, *, tolerance: float = 0.0) -> np.ndarray:
         """True where every joint of q lies within [lower − tol, upper + tol]."""
         a = self.check_q(q)
         return np.all((a >= self._lower - tolerance) & (a <= self._upper + tolerance), axis=-1)
 
-    def random_q(self, size=None, *, rng=None, margin: float = 0.0) -> np.ndarray:
+    def random_q(self, size: int | tuple[int, ...] | None | None = None, *,
+                 rng: np.random.Generator | int | None | None = None, margin: float = 0.0) -> np.ndarray:
         """Random configurations, uniform within the limits (±π, or ±1 m, where unlimited;
         a one-sided limit gets a 2π (2 m) range beyond it).
 
@@ -389,7 +400,7 @@ class Chain:
     # The single-configuration fast paths are inlined here (no further Python calls
     # than the generated kernel and one numpy conversion); everything else is in
     # `ratectl.kinematics`.
-    def fk(self, q) -> np.ndarray:
+    def fk(self, q: ArrayLike) -> np.ndarray:
         """Base-to-tool pose ``T_world_tool`` (..., 4, 4) at q (..., n)."""
         if type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64:
             v = q.tolist()
@@ -399,7 +410,7 @@ class Chain:
                 return np.array(k(*v), dtype=_F64).reshape(4, 4)
         return kinematics.fk(self, q)
 
-    def jacobian(self, q, *, frame: str = "base", point=None) -> np.ndarray:
+    def jacobian(self, q: ArrayLike, *, frame: str = "base", point: ArrayLike | None = None) -> np.ndarray:
         """Geometric Jacobian (..., 6, n), rows [v; ω].
 
         Args:
@@ -417,7 +428,7 @@ class Chain:
                 return np.array(k(*v), dtype=_F64).reshape(6, self._n)
         return kinematics.jacobian(self, q, frame=frame, point=point)
 
-    def fk_jacobian(self, q, *, frame: str = "base", point=None):
+    def fk_jacobian(self, q: ArrayLike, *, frame: str = "base", point: ArrayLike | None = None):
         """``(fk(q), jacobian(q))`` computed together (cheaper than two calls)."""
         if (type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64
                 and frame == "base" and point is None):
@@ -429,15 +440,16 @@ class Chain:
                 return a[:16].reshape(4, 4), a[16:].reshape(6, self._n)
         return kinematics.fk_jacobian(self, q, frame=frame, point=point)
 
-    def frames(self, q) -> np.ndarray:
+    def frames(self, q: ArrayLike) -> np.ndarray:
         """All DH frames ``T_0 … T_n`` in the world, (..., n+1, 4, 4) (T_0 is the base)."""
         return kinematics.frames(self, q)
 
-    def joint_axes(self, q):
+    def joint_axes(self, q: ArrayLike):
         """World axis (unit, ..., n, 3) and a point on it (..., n, 3) for every joint."""
         return kinematics.joint_axes(self, q)
 
-    def jacobian_dot(self, q, qd, *, frame: str = "base", point=None) -> np.ndarray:
+    def jacobian_dot(self, q: ArrayLike, qd: ArrayLike, *, frame: str = "base",
+                     point: ArrayLike | None = None) -> np.ndarray:
         """Time derivative J̇(q, q̇) (..., 6, n), so that the tool acceleration is J q̈ + J̇ q̇."""
         return kinematics.jacobian_dot(self, q, qd, frame=frame, point=point)
 
@@ -446,7 +458,8 @@ class Chain:
         "jac" or "fkjac"), for reading and debugging; see `ratectl.kinematics.codegen`."""
         return kinematics.kernel_source(self, what, batched=batched)
 
-    def joint_torques(self, q, wrench, *, frame: str = "base", point=None) -> np.ndarray:
+    def joint_torques(self, q: ArrayLike, wrench: ArrayLike, *, frame: str = "base",
+                      point: ArrayLike | None = None) -> np.ndarray:
         """Static joint torques τ = Jᵀ F for a tool wrench F = [f; τ], in N and N·m."""
         return kinematics.joint_torques(self, q, wrench, frame=frame, point=point)
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -47,7 +48,7 @@ def _tz(d: float) -> np.ndarray:
     return translation(z=d)
 
 
-def check_limits(qlim, vmax, amax, jmax, *, joint: int | None, where: str):
+def check_limits(qlim: Any, vmax: Any, amax: Any, jmax: Any, *, joint: int | None, where: str):
     """Validate and normalise limits; returns (lo, hi, vmax, amax, jmax) as floats."""
     if qlim is None:
         lo, hi = -math.inf, math.inf
@@ -81,7 +82,7 @@ def check_limits(qlim, vmax, amax, jmax, *, joint: int | None, where: str):
     return (lo, hi, *out)
 
 
-def check_transform(T, name: str) -> np.ndarray:
+def check_transform(T: Any, name: str) -> np.ndarray:
     """A read-write copy of the rigid transform ``T`` (identity for None), or a ModelError
     naming what is wrong (see `ratectl.spatial.rigid_transform_defect`)."""
     if T is None:

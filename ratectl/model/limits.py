@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -63,7 +64,7 @@ class Limits:
         _validate(self.lower, self.upper, self.vmax, self.amax, "Limits")
 
     @classmethod
-    def of(cls, obj, n: int) -> Limits:
+    def of(cls, obj: Any, n: int) -> Limits:
         """Limits from a Chain, a Limits, any object with those four arrays, or None
         (unlimited)."""
         if obj is None:
@@ -106,7 +107,7 @@ def _validate(lower, upper, vmax, amax, what) -> None:
                          "side", argument="lower", value=(lower, upper))
 
 
-def braking_speed_discrete(D, adt, inv_adt2, inv_dt):
+def braking_speed_discrete(D: np.ndarray | float, adt: Any, inv_adt2: Any, inv_dt: Any):
     """Largest speed toward a limit at distance D (≥ 0) [rad or m] from which the joint
     can still stop before it, braking by at most a·dt per step of dt (arguments: D, a·dt,
     1/(a·dt²), 1/dt — precomputed by the caller, this runs every control cycle):
@@ -126,7 +127,8 @@ def braking_speed_discrete(D, adt, inv_adt2, inv_dt):
     return (k + f) * adt + np.minimum(D, 0.0) * inv_dt
 
 
-def stopping_distance(v, a, amax, jmax) -> np.ndarray:
+def stopping_distance(v: np.ndarray | float, a: np.ndarray | float, amax: np.ndarray | float,
+                      jmax: np.ndarray | float) -> np.ndarray:
     """Distance a joint travels while a time-optimal jerk-limited stop brings it from
     velocity ``v`` ≥ 0 and acceleration ``a`` to rest (|q̈| ≤ amax, |q⃛| ≤ jmax); arrays
     broadcast. Units: rad (or m) for rad/s, rad/s², rad/s³.
@@ -150,7 +152,7 @@ def stopping_distance(v, a, amax, jmax) -> np.ndarray:
     return lead + d0
 
 
-def braking_speed(d, amax, jmax) -> np.ndarray:
+def braking_speed(d: np.ndarray | float, amax: np.ndarray | float, jmax: np.ndarray | float) -> np.ndarray:
     """The largest speed from which a joint at zero acceleration can still stop within
     the distance ``d`` ≥ 0 under |q̈| ≤ amax, |q⃛| ≤ jmax: the inverse of
     `stopping_distance` at a = 0,
@@ -165,7 +167,8 @@ def braking_speed(d, amax, jmax) -> np.ndarray:
     return np.where(d <= A**3 / (J * J), np.cbrt(d * d * J), 0.5 * (-k + np.sqrt(k * k + 8.0 * A * d)))
 
 
-def braking_speed_slope(d, amax, jmax) -> np.ndarray:
+def braking_speed_slope(d: np.ndarray | float, amax: np.ndarray | float,
+                        jmax: np.ndarray | float) -> np.ndarray:
     """The derivative db/dd [1/s] of `braking_speed` b(d): a joint braking along that
     curve toward a point at distance d decelerates at b'(d)·b(d), so a command that
     follows the curve has acceleration −b'(d)·b(d) (≤ amax, jerk-limited near d = 0):

@@ -46,13 +46,18 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from .joint_path import JointPath, joint_path
 from .topp import SpeedProfile, reachability_profile
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+    from ..paths.base import Path
 
 __all__ = ['Governor', 'GovernorPlan', 'plan']
 
@@ -182,7 +187,7 @@ class Governor:
         return (f"Governor(velocity_margin={self.velocity_margin}, "
                 f"acceleration_margin={self.acceleration_margin}, check_jerk={self.check_jerk})")
 
-    def plan(self, chain, path, q0, *, dt: float) -> GovernorPlan:
+    def plan(self, chain: Chain, path: Path, q0: ArrayLike, *, dt: float) -> GovernorPlan:
         """Plan the governed motion of ``chain`` along ``path`` from ``q0`` with period ``dt`` [s]."""
         dt = float(dt)
         if not (dt > 0.0 and math.isfinite(dt)):
@@ -341,6 +346,6 @@ def _smooth_progress(prof: SpeedProfile, *, dt: float, window: float):
     return sf, sd, sdd
 
 
-def plan(chain, path, q0, *, dt: float, **options) -> GovernorPlan:
+def plan(chain: Chain, path: Path, q0: ArrayLike, *, dt: float, **options: Any) -> GovernorPlan:
     """Shorthand for ``Governor(**options).plan(chain, path, q0, dt=dt)``."""
     return Governor(**options).plan(chain, path, q0, dt=dt)

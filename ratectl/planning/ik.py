@@ -19,11 +19,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..spatial import pose_error_into, rigid_transform_defect
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = ["ik", "IKResult"]
 
@@ -71,8 +76,8 @@ def _positive(name: str, value: object, *, allow_inf: bool = False) -> float:
     return v
 
 
-def ik(chain, T_target, q0, *, tol: float | tuple[float, float] = (1e-9, 1e-9), max_iter: int = 200,
-       damping: float = 1e-3, max_step: float = 0.2) -> IKResult:
+def ik(chain: Chain, T_target: Any, q0: ArrayLike, *, tol: float | tuple[float, float] = (1e-9, 1e-9),
+       max_iter: int = 200, damping: float = 1e-3, max_step: float = 0.2) -> IKResult:
     """Joint positions q with ``chain.fk(q) ≈ T_target``, by damped Newton steps from ``q0``.
 
     Args:

@@ -45,13 +45,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError, RatectlError
 from ..singularity import analyze
 from ..spatial import pose_error
 from .ik import ik
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+    from ..paths.base import Path
 
 __all__ = ['Crossing', 'JointPath', 'joint_path']
 
@@ -122,7 +128,7 @@ class JointPath:
         for name in ("s", "q", "dq", "ddq", "dddq", "sigma_min", "residual"):
             object.__setattr__(self, name, _readonly(getattr(self, name)))
 
-    def interpolate(self, s) -> np.ndarray:
+    def interpolate(self, s: np.ndarray | float) -> np.ndarray:
         """q at path parameters ``s`` (scalar or (M,)) by cubic Hermite interpolation of q, q′."""
         s = np.asarray(s, dtype=float)
         flat = np.atleast_1d(s)
@@ -147,7 +153,7 @@ class JointPath:
         steep = (np.maximum(np.linalg.norm(d0, axis=1), np.linalg.norm(d1, axis=1)) > 2.0 * ns)[:, None]
         return np.where(steep, sec, d0), np.where(steep, sec, d1)
 
-    def derivatives(self, s):
+    def derivatives(self, s: np.ndarray | float):
         """(q′(s), q″(s)) at ``s`` (M,) by linear interpolation of the grid values."""
         s = np.atleast_1d(np.asarray(s, dtype=float))
         d1 = np.stack([np.interp(s, self.s, self.dq[:, i]) for i in range(self.dq.shape[1])], axis=1)
@@ -205,7 +211,8 @@ def _kind(chain, q) -> str | None:
 class _Integrator:
     """State of one joint-path integration (see the module docstring)."""
 
-    def __init__(self, chain, path, *, max_joint_step, max_step, nullspace_gain, max_points):
+    def __init__(self, chain: Chain, path: Path, *, max_joint_step: Any, max_step: Any, nullspace_gain: Any,
+                 max_points: Any):
         self.chain, self.path = chain, path
         self.n = chain.dof
         self.redundant = self.n > 6
@@ -225,17 +232,17 @@ class _Integrator:
         self.SIG: list[float] = []
         self.RHO: list[float] = []
 
-    def base(self, q, dq_prev):
+    def base(self, q: np.ndarray | float, dq_prev: Any):
         """The null-space preference: joint centring (redundant arm) or the previous tangent."""
         if self.redundant:
             return -self.wgt2 * (q - self.mid)
         return dq_prev if dq_prev is not None else np.zeros(self.n)
 
-    def tangent(self, q, s, dq_prev):
+    def tangent(self, q: np.ndarray | float, s: np.ndarray | float, dq_prev: Any):
         _, J = self.chain.fk_jacobian(q)
         return _tangent(J, self.path.twist_at(s), self.base(q, dq_prev))
 
-    def step(self, q, s, dq):
+    def step(self, q: np.ndarray | float, s: np.ndarray | float, dq: Any):
         """One accepted step (s1, q1) from (s, q) with tangent dq, or None."""
         h = min(self.max_step, self.L - s, self.max_joint_step / max(float(np.max(np.abs(dq))), 1e-12))
         while h > 1e-10 * max(self.L, 1e-3):
@@ -253,14 +260,14 @@ class _Integrator:
             h *= 0.5
         return None
 
-    def record(self, s, q, dq, smin, rho):
+    def record(self, s: float, q: np.ndarray, dq: np.ndarray, smin: float, rho: float) -> None:
         self.S.append(s)
         self.Q.append(q.copy())
         self.D.append(dq)
         self.SIG.append(smin)
         self.RHO.append(rho)
 
-    def run(self, q):
+    def run(self, q: np.ndarray) -> tuple[bool, str, bool]:
         """Integrate from q at s = 0; returns (complete, message, singular_end)."""
         s, dq = 0.0, None
         while True:
@@ -275,7 +282,7 @@ class _Integrator:
                 return self.stopped(q, s, dq, smin, rho)
             s, q = nxt
 
-    def stopped(self, q, s, dq, smin, rho):
+    def stopped(self, q: np.ndarray | float, s: np.ndarray | float, dq: Any, smin: Any, rho: Any):
         """The integration cannot go on from (s, q): a singular end, or a stop that says why."""
         L = self.L
         if L - s <= 1e-4:  # within 0.1 mm of the end: reach the end pose itself
@@ -327,9 +334,10 @@ def _crossings(chain, S, Q, SIG, threshold: float = 1e-2) -> tuple[Crossing, ...
     return tuple(out)
 
 
-def joint_path(chain, path, q0, *, max_joint_step: float = 0.004, max_step: float | None = None,
-               sigma_tolerance: float | None = None, nullspace_gain: float = 1.0,
-               pose_tolerance: float = 1e-4, max_points: int = 200000) -> JointPath:
+def joint_path(chain: Chain, path: Path, q0: ArrayLike, *, max_joint_step: float = 0.004,
+               max_step: float | None = None, sigma_tolerance: float | None = None,
+               nullspace_gain: float = 1.0, pose_tolerance: float = 1e-4,
+               max_points: int = 200000) -> JointPath:
     """Integrate the joint path q(s) along ``path`` from ``q0`` (see the module docstring).
 
     Args:

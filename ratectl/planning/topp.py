@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -87,7 +88,7 @@ class SpeedProfile:
         return s, sd, self.u[i]
 
 
-def constraint_rows(jp: JointPath, vlim, alim, path_speed, path_acc):
+def constraint_rows(jp: JointPath, vlim: Any, alim: Any, path_speed: Any, path_acc: Any):
     """Rows a u + b x ≤ c per grid point ((N, m) arrays a, b, c) and the velocity bound on x.
 
     ``vlim`` and ``alim`` may be (n,) or (N, n) (per-point margins), ``path_speed`` and
@@ -105,7 +106,7 @@ def constraint_rows(jp: JointPath, vlim, alim, path_speed, path_acc):
     return a, b, c, np.minimum(xv, path_speed**2)
 
 
-def accel_mvc(a, b, c):
+def accel_mvc(a: np.ndarray, b: np.ndarray, c: np.ndarray):
     """Largest x per grid point for which some u satisfies every row (pairs of rows)."""
     N, m = a.shape
     zero = np.abs(a) <= _TINY
@@ -154,7 +155,7 @@ def _controllable(a, b, c, mvc, S, x_end: float):
     return lo, hi
 
 
-def reachability_profile(jp: JointPath, vlim, alim, path_speed, path_acc, *,
+def reachability_profile(jp: JointPath, vlim: Any, alim: Any, path_speed: Any, path_acc: Any, *,
                          x_start: float = 0.0, x_end: float = 0.0) -> SpeedProfile:
     """Time-optimal x = ṡ² on the grid of ``jp`` by reachability analysis (module docstring).
 
