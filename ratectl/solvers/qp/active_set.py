@@ -276,7 +276,7 @@ def qp_via_dual(P, b, lo, hi, G, h):
     x(μ) = P⁻¹(b − Aᵀμ) and the dual is min_{μ ≥ 0} ½μᵀ(AP⁻¹Aᵀ)μ − μᵀ(AP⁻¹b − c): a QP over a
     box (0 ≤ μ), positive semidefinite, which the primal active-set method solves exactly.
     The answer is the exact solution on x(μ)'s active set, returned only with its KKT
-    certificate (:func:`polish_general`)."""
+    certificate (`polish_general`)."""
     n = b.shape[0]
     eye = _eye(n)
     A = np.vstack([eye, -eye, G])
