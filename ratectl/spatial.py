@@ -17,8 +17,10 @@ over the whole range; no ``arccos`` of an unclipped value is ever taken.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .errors import InputError
 
@@ -59,7 +61,7 @@ def _as_array(x, name: str, tail: tuple[int, ...]) -> np.ndarray:
     return a
 
 
-def skew(v) -> np.ndarray:
+def skew(v: ArrayLike) -> np.ndarray:
     """Skew-symmetric matrix ``[v]×`` with ``[v]× u = v × u``.
 
     Args:
@@ -79,7 +81,7 @@ def skew(v) -> np.ndarray:
     return out
 
 
-def vee(S) -> np.ndarray:
+def vee(S: ArrayLike) -> np.ndarray:
     """Inverse of `skew` for the skew part of ``S``: returns ``(..., 3)``."""
     S = _as_array(S, "S", (3, 3))
     return 0.5 * np.stack(
@@ -101,22 +103,22 @@ def _axis_rotation(angle, i: int, j: int) -> np.ndarray:
     return out
 
 
-def rotx(angle) -> np.ndarray:
+def rotx(angle: ArrayLike) -> np.ndarray:
     """Rotation about x by ``angle`` [rad]: ``(..., 3, 3)``."""
     return _axis_rotation(angle, 1, 2)
 
 
-def roty(angle) -> np.ndarray:
+def roty(angle: ArrayLike) -> np.ndarray:
     """Rotation about y by ``angle`` [rad]: ``(..., 3, 3)``."""
     return _axis_rotation(angle, 2, 0)
 
 
-def rotz(angle) -> np.ndarray:
+def rotz(angle: ArrayLike) -> np.ndarray:
     """Rotation about z by ``angle`` [rad]: ``(..., 3, 3)``."""
     return _axis_rotation(angle, 0, 1)
 
 
-def transform(R=None, p=None) -> np.ndarray:
+def transform(R: ArrayLike | None = None, p: Any = None) -> np.ndarray:
     """Homogeneous transform from a rotation ``R`` (..., 3, 3) and translation ``p`` (..., 3) [m].
 
     Either may be omitted (identity rotation, zero translation).
@@ -136,7 +138,7 @@ def translation(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:
     return transform(None, np.array([x, y, z], dtype=float))
 
 
-def inverse_transform(T) -> np.ndarray:
+def inverse_transform(T: ArrayLike) -> np.ndarray:
     """Inverse of a rigid transform: ``[Rᵀ, −Rᵀp; 0, 1]``."""
     T = _as_array(T, "T", (4, 4))
     R = T[..., :3, :3]
@@ -145,7 +147,7 @@ def inverse_transform(T) -> np.ndarray:
     return transform(Rt, -np.einsum("...ij,...j->...i", Rt, p))
 
 
-def so3_exp(w) -> np.ndarray:
+def so3_exp(w: ArrayLike) -> np.ndarray:
     """Rotation matrix of a rotation vector ``w = θ·axis`` (Rodrigues' formula).
 
     ``R = I + (sin θ/θ)[w]× + ((1 − cos θ)/θ²)[w]×²``, with Taylor series for θ < 1e-6.
@@ -162,7 +164,7 @@ def so3_exp(w) -> np.ndarray:
     return np.eye(3) + A[..., None, None] * K + B[..., None, None] * K2
 
 
-def rotation_angle(R) -> np.ndarray:
+def rotation_angle(R: ArrayLike) -> np.ndarray:
     """Rotation angle θ ∈ [0, π] of ``R``, computed as atan2(‖vee(R)‖, (tr R − 1)/2)."""
     R = _as_array(R, "R", (3, 3))
     s = np.linalg.norm(vee(R), axis=-1)
@@ -170,7 +172,7 @@ def rotation_angle(R) -> np.ndarray:
     return np.arctan2(s, c)
 
 
-def so3_log(R) -> np.ndarray:
+def so3_log(R: ArrayLike) -> np.ndarray:
     """Rotation vector ``w = θ·axis`` of a rotation matrix (inverse of `so3_exp`).
 
     θ = atan2(‖vee(R)‖, (tr R − 1)/2) is accurate everywhere. Away from π the axis
@@ -211,7 +213,7 @@ def _left_jacobian_terms(th2):
     return B, C
 
 
-def se3_exp(xi) -> np.ndarray:
+def se3_exp(xi: ArrayLike) -> np.ndarray:
     """Transform ``exp([ξ])`` of a twist ``ξ = [v; ω]`` (unit time), shape ``(..., 6)``.
 
     ``T = [exp(ω), V(ω) v; 0, 1]`` with ``V = I + B[ω]× + C[ω]×²``,
@@ -227,7 +229,7 @@ def se3_exp(xi) -> np.ndarray:
     return transform(R, np.einsum("...ij,...j->...i", V, v))
 
 
-def se3_log(T) -> np.ndarray:
+def se3_log(T: ArrayLike) -> np.ndarray:
     """Twist ``ξ = [v; ω]`` with ``se3_exp(ξ) = T`` (inverse of `se3_exp`)."""
     T = _as_array(T, "T", (4, 4))
     w = so3_log(T[..., :3, :3])
@@ -245,7 +247,7 @@ def se3_log(T) -> np.ndarray:
     return np.concatenate([v, w], axis=-1)
 
 
-def pose_error(T_desired, T_actual) -> np.ndarray:
+def pose_error(T_desired: ArrayLike, T_actual: ArrayLike) -> np.ndarray:
     """Servoing pose error ``e = [p_d − p ; log(R_d Rᵀ)]`` in base-frame axes, ``(..., 6)``.
 
     The rotational part is the rotation vector that takes the actual orientation to
@@ -295,7 +297,7 @@ def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray
     return ep, th
 
 
-def rigid_transform_defect(T, *, tolerance: float = 1e-6) -> str | None:
+def rigid_transform_defect(T: ArrayLike, *, tolerance: float = 1e-6) -> str | None:
     """What keeps ``T`` from being a rigid transform (4×4, finite, orthonormal rotation with
     det +1, last row [0, 0, 0, 1]), as a phrase for an error message; None when it is one.
 
@@ -324,7 +326,7 @@ def rigid_transform_defect(T, *, tolerance: float = 1e-6) -> str | None:
     return None
 
 
-def quat_from_rotation(R) -> np.ndarray:
+def quat_from_rotation(R: ArrayLike) -> np.ndarray:
     """Unit quaternion ``[w, x, y, z]`` (w ≥ 0) of a rotation matrix, robust for all angles."""
     R = _as_array(R, "R", (3, 3))
     w = so3_log(R)
@@ -336,7 +338,7 @@ def quat_from_rotation(R) -> np.ndarray:
     return q
 
 
-def rotation_from_quat(q) -> np.ndarray:
+def rotation_from_quat(q: ArrayLike) -> np.ndarray:
     """Rotation matrix of a quaternion ``[w, x, y, z]`` (normalised first; zero raises)."""
     q = _as_array(q, "q", (4,))
     n = np.linalg.norm(q, axis=-1, keepdims=True)
@@ -350,13 +352,13 @@ def rotation_from_quat(q) -> np.ndarray:
     ], -2)
 
 
-def rotation_from_rpy(rpy) -> np.ndarray:
+def rotation_from_rpy(rpy: ArrayLike) -> np.ndarray:
     """``R = Rz(yaw) Ry(pitch) Rx(roll)`` from ``[roll, pitch, yaw]`` [rad] (URDF convention)."""
     rpy = _as_array(rpy, "rpy", (3,))
     return rotz(rpy[..., 2]) @ roty(rpy[..., 1]) @ rotx(rpy[..., 0])
 
 
-def rpy_from_rotation(R) -> np.ndarray:
+def rpy_from_rotation(R: ArrayLike) -> np.ndarray:
     """``[roll, pitch, yaw]`` [rad] with ``R = Rz(yaw) Ry(pitch) Rx(roll)``.
 
     At pitch = ±π/2 (gimbal lock) roll is set to 0 and yaw takes the whole angle.
@@ -372,7 +374,7 @@ def rpy_from_rotation(R) -> np.ndarray:
     return np.stack([roll, pitch, yaw], axis=-1)
 
 
-def adjoint(T) -> np.ndarray:
+def adjoint(T: ArrayLike) -> np.ndarray:
     """Twist adjoint of ``T`` for ``[v; ω]`` twists: ``[[R, [p]×R], [0, R]]``, ``(..., 6, 6)``."""
     T = _as_array(T, "T", (4, 4))
     R = T[..., :3, :3]
@@ -383,7 +385,7 @@ def adjoint(T) -> np.ndarray:
     return out
 
 
-def interpolate(T0, T1, s, *, method: str = "decoupled") -> np.ndarray:
+def interpolate(T0: ArrayLike, T1: ArrayLike, s: ArrayLike, *, method: str = "decoupled") -> np.ndarray:
     """Interpolate between two poses at fraction ``s`` ∈ [0, 1] (broadcasts over ``s``).
 
     Args:

@@ -142,3 +142,20 @@ def test_the_checker_accepts_downward_and_internal_imports():
     assert _problems(source, "ratectl.solvers.base") == []
     type_only = "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..model import Chain\n"
     assert _problems(type_only, "ratectl.kinematics.forward") == []
+
+
+def test_import_ratectl_needs_no_optional_extra():
+    """mujoco, mink, matplotlib and franky are extras: importing the package (and a chain from
+    URDF text) must not import them — an annotation's import belongs under TYPE_CHECKING."""
+    import subprocess
+    import sys
+
+    code = ("import sys, ratectl as rc\n"
+            "rc.Chain.from_urdf('<robot name=\"r\"><link name=\"a\"/><link name=\"b\"/>"
+            "<joint name=\"j\" type=\"continuous\"><parent link=\"a\"/><child link=\"b\"/></joint>"
+            "</robot>')\n"
+            "rc.solvers, rc.control, rc.paths, rc.planning, rc.execution, rc.singularity\n"
+            "print(sorted(m for m in ('mujoco', 'mink', 'matplotlib', 'franky') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]", out.stdout

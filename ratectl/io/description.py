@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ImportModelError
 from ..spatial import transform
@@ -70,7 +71,7 @@ class ModelDescription:
         object.__setattr__(self, "joints", tuple(self.joints))
 
 
-def axis_rotation(axis) -> np.ndarray:
+def axis_rotation(axis: ArrayLike) -> np.ndarray:
     """A rotation ``R_a`` (3×3) with ``R_a · ẑ = a`` for a unit vector ``a``.
 
     Exact for ±z (identity, Rx(π)); otherwise the rotation about ``ẑ × a`` by the
@@ -92,7 +93,7 @@ def axis_rotation(axis) -> np.ndarray:
 MAX_LENGTH = 1e9
 
 
-def unit_axis(v, what: str) -> np.ndarray:
+def unit_axis(v: ArrayLike, what: str) -> np.ndarray:
     """``v / ‖v‖``, scaled by max |v_i| first so that the norm cannot overflow or underflow
     (an axis ``1e300 1e300 0`` is the unit vector (1, 1, 0)/√2)."""
     v = np.asarray(v, dtype=float)
@@ -109,7 +110,8 @@ def unit_axis(v, what: str) -> np.ndarray:
     return u / n
 
 
-def movable_joint(kind: str, O: np.ndarray, axis: np.ndarray, *, name: str, qlim, vmax,
+def movable_joint(kind: str, O: np.ndarray, axis: np.ndarray, *, name: str,
+                  qlim: tuple[float, float] | None, vmax: float | None,
                    what: str, post_extra: np.ndarray | None = None,
                    offset: float = 0.0) -> JointDescription:
     """Joint with ``pre = O · R_a · M(−offset)``, ``post = R_aᵀ · post_extra``."""

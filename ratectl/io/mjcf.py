@@ -16,6 +16,7 @@ import math
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,12 +25,17 @@ from ..spatial import rotation_from_quat, transform
 from .description import JointDescription, ModelDescription, movable_joint, unit_axis
 from .xml import MAX_BYTES, MAX_DEPTH, parse_xml_safely, read_file_capped, read_source
 
+if TYPE_CHECKING:
+    import mujoco
+
+    from ..model.chain import Chain
+
 __all__ = ["parse_mjcf", "compile_mjcf", "mjcf_joint_addresses"]
 
 _MJ_JOINT_NAMES = {0: "free", 1: "ball", 2: "slide", 3: "hinge"}
 
 
-def parse_mjcf(path_or_model, *, tip: str | None = None, name: str | None = None) -> ModelDescription:
+def parse_mjcf(path_or_model: Any, *, tip: str | None = None, name: str | None = None) -> ModelDescription:
     """Chain from an MJCF file (or its XML text) or a compiled ``mujoco.MjModel``.
 
     Args:
@@ -61,7 +67,7 @@ def parse_mjcf(path_or_model, *, tip: str | None = None, name: str | None = None
     return _describe_model(model, tip=tip, name=name, label=label)
 
 
-def compile_mjcf(model_or_source):
+def compile_mjcf(model_or_source: Any):
     """An ``MjModel`` from an ``MjModel`` (returned as is), MJCF text, bytes or a file path.
 
     Text and files go through the safety checks of `parse_mjcf` (no DTD/entities,
@@ -359,7 +365,7 @@ def _check_equalities(model, chain_joint_ids: set[int], label: str) -> None:
                 "joints are not supported on the chain; choose a tip that excludes it", element=what)
 
 
-def mjcf_joint_addresses(model, chain) -> tuple[np.ndarray, np.ndarray]:
+def mjcf_joint_addresses(model: mujoco.MjModel, chain: Chain) -> tuple[np.ndarray, np.ndarray]:
     """``(qpos addresses, dof addresses)`` of the chain's joints in ``model``, matched by name.
 
     Raises:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +25,9 @@ from ..spatial import rotation_from_rpy, transform
 from .description import MAX_LENGTH, JointDescription, ModelDescription, movable_joint, unit_axis
 from .xml import float_attr, floats, parse_xml_safely, read_source
 
+if TYPE_CHECKING:
+    from ..paths.base import Path
+
 __all__ = ["parse_urdf"]
 
 _URDF_MOVABLE = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
@@ -31,7 +35,7 @@ _URDF_UNSUPPORTED = {"floating": "a floating joint has 6 degrees of freedom",
                      "planar": "a planar joint has 3 degrees of freedom"}
 
 
-def parse_urdf(path, *, tip: str | None = None, base_link: str | None = None,
+def parse_urdf(path: Path, *, tip: str | None = None, base_link: str | None = None,
                     name: str | None = None) -> ModelDescription:
     """Chain of the joints between ``base_link`` and ``tip`` of a URDF robot.
 

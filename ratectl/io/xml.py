@@ -19,6 +19,7 @@ import re
 import stat
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -44,7 +45,7 @@ _SNIFF = ((b"<\0\0\0", "utf-32-le"), (b"\0\0\0<", "utf-32-be"), (b"<\0", "utf-16
           (b"\0<", "utf-16-be"))
 
 
-def read_source(source, kind: str) -> tuple[bytes | str, str, Path | None]:
+def read_source(source: Any, kind: str) -> tuple[bytes | str, str, Path | None]:
     """(bytes or text, a label for messages, directory of the file or None) of a path, XML
     text or bytes; sources over `MAX_BYTES` are refused."""
     if isinstance(source, bytes | bytearray | memoryview):
@@ -187,7 +188,7 @@ def _check_depth(root: ET.Element, label: str, max_depth: int) -> None:
         stack.extend((c, d + 1) for c in el)
 
 
-def floats(text: str | None, count: int, *, default, what: str) -> np.ndarray:
+def floats(text: str | None, count: int, *, default: Any, what: str) -> np.ndarray:
     if text is None:
         return np.array(default, dtype=float)
     parts = text.split()

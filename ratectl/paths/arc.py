@@ -4,8 +4,10 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..spatial import so3_log
@@ -36,9 +38,9 @@ class Arc(Path):
         rotation_length: ρ [m/rad], as for `Line`.
     """
 
-    def __init__(self, T_start, *, centre, axis, angle: float, orientation: str = "fixed",
-                 speed: float, acceleration: float, jerk: float | None = None, law: str | None = None,
-                 rotation_length: float = 0.1, _R_end=None) -> None:
+    def __init__(self, T_start: ArrayLike, *, centre: ArrayLike, axis: ArrayLike, angle: float,
+                 orientation: str = "fixed", speed: float, acceleration: float, jerk: float | None = None,
+                 law: str | None = None, rotation_length: float = 0.1, _R_end: Any = None) -> None:
         self.T_start = _pose(T_start, "T_start")
         c = _vec3(centre, "centre")
         k = _vec3(axis, "axis")
@@ -77,8 +79,9 @@ class Arc(Path):
                     rotation_length=rotation_length)
 
     @classmethod
-    def through(cls, T_start, via, T_end, *, speed: float, acceleration: float, jerk: float | None = None,
-                law: str | None = None, rotation_length: float = 0.1) -> Arc:
+    def through(cls, T_start: ArrayLike, via: ArrayLike, T_end: ArrayLike, *, speed: float,
+                acceleration: float, jerk: float | None = None, law: str | None = None,
+                rotation_length: float = 0.1) -> Arc:
         """The arc from the position of ``T_start`` through the point ``via`` (3,) to the position
         of ``T_end``; the orientation goes from R(T_start) to R(T_end) on the SO(3) geodesic."""
         T0, T1 = _pose(T_start, "T_start"), _pose(T_end, "T_end")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..spatial import so3_exp, so3_log
@@ -68,11 +69,11 @@ class Path:
         """Pose at s = length."""
         return self.pose_at(self.length)
 
-    def position_at(self, s) -> np.ndarray:
+    def position_at(self, s: ArrayLike) -> np.ndarray:
         """Tool position p(s) [m] (3,)."""
         return self._geometry(self._clamp(s))[0]
 
-    def pose_at(self, s) -> np.ndarray:
+    def pose_at(self, s: ArrayLike) -> np.ndarray:
         """Tool pose P(s) (4×4) at path parameter ``s`` [m] (clamped to [0, length])."""
         p, R, _, _ = self._geometry(self._clamp(s))
         T = np.eye(4)
@@ -80,13 +81,13 @@ class Path:
         T[:3, 3] = p
         return T
 
-    def twist_at(self, s, *, sd: float = 1.0) -> np.ndarray:
+    def twist_at(self, s: ArrayLike, *, sd: float = 1.0) -> np.ndarray:
         """Tool twist ``[dp/ds; ω_s]·ṡ`` (6,) at ``s`` for progress rate ``ṡ = sd`` [m/s]
         (with the default sd = 1 it is the path tangent dP/ds)."""
         _, _, dp, w = self._geometry(self._clamp(s))
         return np.concatenate([dp, w]) * float(sd)
 
-    def curvature_twist_at(self, s, *, h: float | None = None) -> np.ndarray:
+    def curvature_twist_at(self, s: ArrayLike, *, h: float | None = None) -> np.ndarray:
         """Second derivative d²P/ds² as a twist-rate (6,) by central differences of
         `twist_at` (step ``h`` [m], default 1e-5·length)."""
         h = h or max(1e-5 * self.length, 1e-9)
@@ -97,15 +98,15 @@ class Path:
         return (self.twist_at(b) - self.twist_at(a)) / (b - a)
 
     # -- time -----------------------------------------------------------------
-    def progress(self, t) -> tuple[float, float, float]:
+    def progress(self, t: float) -> tuple[float, float, float]:
         """``(s, ṡ, s̈)`` of the nominal time law at time ``t`` [s]."""
         return self.law(float(t))
 
-    def pose(self, t) -> np.ndarray:
+    def pose(self, t: float) -> np.ndarray:
         """Tool pose (4×4) at time ``t`` [s] of the nominal time law."""
         return self.pose_at(self.law(float(t))[0])
 
-    def twist(self, t) -> np.ndarray:
+    def twist(self, t: float) -> np.ndarray:
         """Tool twist ``[v; ω]`` (6,) at time ``t`` [s] of the nominal time law."""
         s, sd, _ = self.law(float(t))
         return self.twist_at(s, sd=sd)
@@ -133,7 +134,7 @@ class Path:
         return t, np.array([self.pose(x) for x in t]), np.array([self.twist(x) for x in t])
 
     # -- distance -------------------------------------------------------------
-    def closest(self, point, *, s_hint: float | None = None, window: float | None = None) -> float:
+    def closest(self, point: ArrayLike, *, s_hint: float | None = None, window: float | None = None) -> float:
         """Path parameter of the point of the curve nearest to ``point`` (3,).
 
         Without ``s_hint``: a grid of 101 samples over the whole path, then Newton steps on
@@ -170,7 +171,7 @@ class Path:
             s = s_new
         return s
 
-    def distance(self, T, *, s_hint: float | None = None, window: float | None = None):
+    def distance(self, T: ArrayLike, *, s_hint: float | None = None, window: float | None = None):
         """Distance of the pose ``T`` from the path: ``(position [m], orientation [rad], s)`` where
         s is the nearest point of the curve and the orientation error is the angle between
         R and R(s)."""
@@ -189,7 +190,7 @@ class Path:
 class _Geodesic:
     """Orientation ``R(λ) = R₀ exp(λ w)``; angular velocity per unit λ in base axes ``R₀ w``."""
 
-    def __init__(self, R0, w) -> None:
+    def __init__(self, R0: np.ndarray, w: np.ndarray) -> None:
         self.R0 = R0
         self.w = w
         self.w_base = R0 @ w

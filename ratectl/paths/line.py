@@ -4,8 +4,10 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..spatial import so3_log
 from .base import Path, _Geodesic
@@ -30,8 +32,8 @@ class Line(Path):
         rotation_length: ρ [m/rad] (see the module docstring).
     """
 
-    def __init__(self, T_start, T_end, *, speed: float, acceleration: float, jerk: float | None = None,
-                 law: str | None = None, rotation_length: float = 0.1) -> None:
+    def __init__(self, T_start: ArrayLike, T_end: ArrayLike, *, speed: float, acceleration: float,
+                 jerk: float | None = None, law: str | None = None, rotation_length: float = 0.1) -> None:
         self.T_start = _pose(T_start, "T_start")
         self.T_end = _pose(T_end, "T_end")
         self.p0 = self.T_start[:3, 3]
@@ -49,7 +51,7 @@ class Line(Path):
         lam = s / L
         return self.p0 + lam * self.dp, self.rot.at(lam), self.dp / L, self.rot.w_base / L
 
-    def closest(self, point, *, s_hint=None, window=None) -> float:
+    def closest(self, point: ArrayLike, *, s_hint: Any = None, window: Any = None) -> float:
         """Exact projection onto the segment (the orientation does not enter)."""
         L = self.length
         d2 = float(self.dp @ self.dp)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..spatial import so3_exp, so3_log
@@ -43,7 +44,7 @@ class Waypoints(Path):
         rotation_length: ρ [m/rad], as for `Line`.
     """
 
-    def __init__(self, poses, *, blend: float = 0.02, speed: float, acceleration: float,
+    def __init__(self, poses: ArrayLike, *, blend: float = 0.02, speed: float, acceleration: float,
                  jerk: float | None = None, law: str | None = None, rotation_length: float = 0.1) -> None:
         P = np.asarray(poses, dtype=float)
         if P.ndim != 3 or P.shape[1:] != (4, 4) or P.shape[0] < 2:

@@ -8,8 +8,10 @@ import math
 import weakref
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..kinematics import shift_jacobian
@@ -30,6 +32,9 @@ from .measures import (
     _ro,
 )
 from .structure import ArmStructure, _geometry, _lines, structure
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = ['analyze', 'classify', 'SingularityReport']
 
@@ -109,7 +114,8 @@ def _core(chain, J, L, rtol, near, factor_tol, raw):
     return out
 
 
-def classify(chain, q=None, *, J=None, length: float | None = None, near: float = DEFAULT_NEAR,
+def classify(chain: Chain, q: ArrayLike | None = None, *, J: ArrayLike | None = None,
+             length: float | None = None, near: float = DEFAULT_NEAR,
              factor_tol: float = DEFAULT_FACTOR_TOL) -> tuple[str, float]:
     """Fast kind of one configuration: ``(kind, σ_min(J_L))`` — for control loops.
 
@@ -231,7 +237,7 @@ def _direction_phrase(u: np.ndarray) -> str:
     lin, ang = u[:3], u[3:]
     nl, na = float(np.linalg.norm(lin)), float(np.linalg.norm(ang))
 
-    def vec(x):
+    def vec(x: np.ndarray) -> str:
         x = x / np.linalg.norm(x)
         return "[" + ", ".join(f"{v:+.2f}" for v in x) + "]"
 
@@ -331,7 +337,7 @@ def _translation_lost(chain, st_v, L: float, near: float):
 _GENERIC_TRANSLATION_RANK: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def analyze(chain, q, *, length: float | None = None, rtol: float = DEFAULT_RTOL,
+def analyze(chain: Chain, q: ArrayLike, *, length: float | None = None, rtol: float = DEFAULT_RTOL,
             near: float = DEFAULT_NEAR, factor_tol: float = DEFAULT_FACTOR_TOL) -> SingularityReport:
     """Full singularity analysis of ``chain`` at one configuration q (n,).
 

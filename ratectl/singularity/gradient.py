@@ -3,16 +3,22 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..kinematics.hessian import hessian_from_jacobian
 from .measures import _others_product, _scaled
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = ['manipulability_gradient']
 
 
 # ====================================================================== gradient, paths
-def manipulability_gradient(chain, q, *, length: float | None = None) -> np.ndarray:
+def manipulability_gradient(chain: Chain, q: ArrayLike, *, length: float | None = None) -> np.ndarray:
     """Analytic gradient ∂w/∂q of the Yoshikawa manipulability, (n,) or (..., n).
 
     With J = U Σ Vᵀ (thin SVD, m = min(6, n) singular values) and the kinematic Hessian

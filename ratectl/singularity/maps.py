@@ -4,12 +4,19 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from .measures import _BOUNDARY, _ELBOW, _RANKDEF, _SHOULDER, _WRIST, KINDS, _ro
 from .scan import scan
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from ..model.chain import Chain
 
 __all__ = ['workspace_map', 'WorkspaceMap', 'plot_workspace_map']
 
@@ -37,10 +44,10 @@ class WorkspaceMap:
     kind_code: np.ndarray | None = None
 
 
-def workspace_map(chain, *, joints: tuple[int, int] | None = None, plane: str | None = None,
-                  q=None, ranges=None, resolution: int = 121, offset: float = 0.0,
+def workspace_map(chain: Chain, *, joints: tuple[int, int] | None = None, plane: str | None = None,
+                  q: ArrayLike | None = None, ranges: Any = None, resolution: int = 121, offset: float = 0.0,
                   slab: float = 0.02, samples: int = 400_000, measure: str = "manipulability",
-                  length: float | None = None, rng=0) -> WorkspaceMap:
+                  length: float | None = None, rng: np.random.Generator | int | None = 0) -> WorkspaceMap:
     """Map a singularity measure over two joints, or over a plane of tool positions.
 
     Exactly one of:
@@ -139,8 +146,8 @@ def workspace_map(chain, *, joints: tuple[int, int] | None = None, plane: str | 
                               f"{lab[ax2]} = {offset:g} m (±{slab / 2:g} m)")
 
 
-def plot_workspace_map(wmap: WorkspaceMap, *, ax=None, cmap: str = "viridis", colorbar: bool = True,
-                       show_kinds: bool = True):
+def plot_workspace_map(wmap: WorkspaceMap, *, ax: Axes | None = None, cmap: str = "viridis",
+                       colorbar: bool = True, show_kinds: bool = True):
     """Plot a `WorkspaceMap` with matplotlib (imported here; ``pip install matplotlib``).
 
     In joints mode with ``show_kinds``, the near-singular grid points are outlined by

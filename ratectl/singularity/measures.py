@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 
@@ -77,7 +78,7 @@ def _scaled(J: np.ndarray, length) -> np.ndarray:
     return out
 
 
-def singular_values(J, *, length: float | None = None) -> np.ndarray:
+def singular_values(J: ArrayLike, *, length: float | None = None) -> np.ndarray:
     """Singular values σ₁ ≥ … ≥ σ_m of J, (..., m) with m = min(rows, n).
 
     Args:
@@ -88,7 +89,7 @@ def singular_values(J, *, length: float | None = None) -> np.ndarray:
     return np.linalg.svd(_scaled(_as_jacobian(J), length), compute_uv=False)
 
 
-def manipulability(J, *, length: float | None = None) -> np.ndarray:
+def manipulability(J: ArrayLike, *, length: float | None = None) -> np.ndarray:
     """Yoshikawa manipulability w = σ₁⋯σ_m, (...,).
 
     w = √det(J Jᵀ) when J has at least as many columns as rows (n ≥ 6), and
@@ -112,7 +113,7 @@ def manipulability(J, *, length: float | None = None) -> np.ndarray:
     return w
 
 
-def condition_number(J, *, length: float | None = None, inverse: bool = False) -> np.ndarray:
+def condition_number(J: ArrayLike, *, length: float | None = None, inverse: bool = False) -> np.ndarray:
     """Condition number κ = σ₁/σ_m (inf where σ_m = 0), or its inverse σ_m/σ₁ ∈ [0, 1].
 
     Args:
@@ -131,7 +132,7 @@ def _cond(smax, smin, inverse):
     return np.divide(smax, smin, out=np.full_like(smax, np.inf), where=smin > 0)
 
 
-def rank(J, *, length: float | None = None, rtol: float = DEFAULT_RTOL) -> np.ndarray:
+def rank(J: ArrayLike, *, length: float | None = None, rtol: float = DEFAULT_RTOL) -> np.ndarray:
     """Numerical rank: the number of σ_i > rtol·σ₁ (an int array of the batch shape)."""
     s = singular_values(J, length=length)
     return np.sum(s > rtol * s[..., :1], axis=-1)

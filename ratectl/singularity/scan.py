@@ -5,8 +5,10 @@ and the task directions a chain can never move in (`fixed_lost_directions`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..kinematics.hessian import hessian_from_jacobian
@@ -21,6 +23,9 @@ from .measures import (
     _ro,
     _scaled,
 )
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = ['scan', 'ScanResult', 'path_distance', 'PathDistance', 'fixed_lost_directions']
 
@@ -71,7 +76,7 @@ class ScanResult:
 _SCAN_CHUNK = 16384
 
 
-def scan(chain, qs, *, length: float | None = None, rtol: float = DEFAULT_RTOL,
+def scan(chain: Chain, qs: ArrayLike, *, length: float | None = None, rtol: float = DEFAULT_RTOL,
          near: float = DEFAULT_NEAR, factor_tol: float = DEFAULT_FACTOR_TOL,
          raw: bool = False) -> ScanResult:
     """Singularity measures and kinds for many configurations, batched.
@@ -99,7 +104,7 @@ def scan(chain, qs, *, length: float | None = None, rtol: float = DEFAULT_RTOL,
         J = chain.jacobian(flat[start:start + _SCAN_CHUNK])
         parts.append(_core(chain, J, L, rtol, near, factor_tol, raw))
 
-    def cat(get, tail=0):
+    def cat(get: Any, tail: Any = 0):
         x = np.concatenate([get(p) for p in parts], axis=0)
         return _ro(x.reshape(batch + x.shape[1:]))
 
@@ -157,7 +162,7 @@ class PathDistance:
         return np.asarray(KINDS)[self.kind_code]
 
 
-def path_distance(chain, qs, *, length: float | None = None, near: float = DEFAULT_NEAR,
+def path_distance(chain: Chain, qs: ArrayLike, *, length: float | None = None, near: float = DEFAULT_NEAR,
                   factor_tol: float = DEFAULT_FACTOR_TOL) -> PathDistance:
     """Distance to singularity along a path of configurations qs (N, n).
 
@@ -188,7 +193,8 @@ def path_distance(chain, qs, *, length: float | None = None, near: float = DEFAU
         kind_code=_ro(core["kind_code"]), closest=int(np.argmin(smin)))
 
 
-def fixed_lost_directions(chain, *, samples: int = 64, rng=0, rtol: float = 1e-9) -> np.ndarray:
+def fixed_lost_directions(chain: Chain, *, samples: int = 64, rng: np.random.Generator | int | None = 0,
+                          rtol: float = 1e-9) -> np.ndarray:
     """Task directions the arm can never move in, at any configuration: (6, k) orthonormal.
 
     These are the unit twists u (raw [v; ω] coordinates) with uᵀ J(q) = 0 for every q —

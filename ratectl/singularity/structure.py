@@ -6,11 +6,16 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..kinematics import shift_jacobian
 from .measures import _TINY
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = ['structure', 'ArmStructure']
 
@@ -85,7 +90,7 @@ def _closest_point(pa, da, pb, db):
     return pa + t[..., None] * da
 
 
-def structure(chain) -> ArmStructure:
+def structure(chain: Chain) -> ArmStructure:
     """Detect the arm's structure from its model (cached per chain).
 
     The tests are geometric, on the joint axes at a few random configurations (fixed
@@ -101,10 +106,10 @@ def structure(chain) -> ArmStructure:
     qs = chain.random_q(5, rng=20240611)
     z, c = _lines(chain.jacobian(qs))
 
-    def always_parallel(a, b):
+    def always_parallel(a: ArrayLike, b: ArrayLike):
         return bool(np.all(_norm(_cross(z[:, a], z[:, b])) < 1e-9))
 
-    def never_parallel(a, b):
+    def never_parallel(a: ArrayLike, b: ArrayLike):
         return bool(np.all(_norm(_cross(z[:, a], z[:, b])) > 1e-6))
 
     wrist = (n - 3, n - 2, n - 1) if n >= 6 and all(rev[n - 3:]) else None

@@ -8,13 +8,17 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.linalg import lapack as _lapack
 
 from ..errors import InputError, RatectlError, SolverError
 from ..model.limits import Limits
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
 
 __all__ = ['SolveResult', 'Solver', 'POSITION_ONLY', 'ORIENTATION_ONLY', 'VELOCITY_POLICIES']
 
@@ -63,7 +67,7 @@ class _LazySigma:
 
     __slots__ = ("G", "J")
 
-    def __init__(self, G, J=None):
+    def __init__(self, G: np.ndarray | None, J: np.ndarray | None = None) -> None:
         self.G = G
         self.J = J
 
@@ -71,6 +75,8 @@ class _LazySigma:
         G = self.G
         if G is None:
             J = self.J
+            if J is None:  # pragma: no cover - built with G or J
+                return math.nan
             G = J @ J.T if J.shape[0] <= J.shape[1] else J.T @ J
         if G.shape[0] == 0:
             return 0.0
@@ -305,8 +311,8 @@ class Solver:
 
     method = "base"
 
-    def __init__(self, *, velocity_policy: str | None = "scale", task_weights=None,
-                 joint_weights=None) -> None:
+    def __init__(self, *, velocity_policy: str | None = "scale", task_weights: ArrayLike | None = None,
+                 joint_weights: ArrayLike | None = None) -> None:
         if velocity_policy not in VELOCITY_POLICIES:
             raise InputError(f"velocity_policy must be one of {VELOCITY_POLICIES}, "
                              f"got {velocity_policy!r}", argument="velocity_policy",
@@ -370,7 +376,9 @@ class Solver:
             qd = qd * self._isw
         return qd, damping, sigma, info
 
-    def solve(self, J, xi, *, limits=None, q=None, qd_prev=None, dt=None) -> SolveResult:
+    def solve(self, J: np.ndarray, xi: np.ndarray, *, limits: Limits | Chain | None = None,
+              q: ArrayLike | None = None, qd_prev: ArrayLike | None = None,
+              dt: float | None = None) -> SolveResult:
         """Joint velocities q̇ (n,) for the twist ``xi`` (m,) with the Jacobian ``J`` (m, n).
 
         Args:

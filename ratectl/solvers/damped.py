@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError, SingularityError
 from .base import Solver, _dgesdd, _dot, _dposv, _dpotrf, _dsyev, _LazySigma, _positive
@@ -18,7 +19,7 @@ __all__ = ['DLS', 'AdaptiveDLS', 'SDLS', 'adaptive_damping']
 _SQRT_HALF = math.sqrt(0.5)
 
 
-def adaptive_damping(sigma, *, epsilon: float, max_damping: float):
+def adaptive_damping(sigma: ArrayLike, *, epsilon: float, max_damping: float):
     """The σ-scheduled damping of Maciejewski & Klein / Chiaverini:
 
     λ² = (1 − (σ/ε)²)·λ_max² for σ < ε, else 0.  Returns λ (scalar or array like σ).
@@ -54,7 +55,7 @@ class DLS(Solver):
     method = "dls"
 
     def __init__(self, *, damping: float = 0.05, velocity_policy: str | None = "scale",
-                 task_weights=None, joint_weights=None) -> None:
+                 task_weights: ArrayLike | None = None, joint_weights: ArrayLike | None = None) -> None:
         super().__init__(velocity_policy=velocity_policy, task_weights=task_weights,
                          joint_weights=joint_weights)
         self.damping = _positive("damping", damping)
@@ -126,8 +127,8 @@ class AdaptiveDLS(Solver):
 
     def __init__(self, *, epsilon: float = 0.05, max_damping: float = 0.05, mode: str = "sigma",
                  manipulability_threshold: float | None = None,
-                 velocity_policy: str | None = "scale", task_weights=None,
-                 joint_weights=None) -> None:
+                 velocity_policy: str | None = "scale", task_weights: ArrayLike | None = None,
+                 joint_weights: ArrayLike | None = None) -> None:
         super().__init__(velocity_policy=velocity_policy, task_weights=task_weights,
                          joint_weights=joint_weights)
         self.epsilon = _positive("epsilon", epsilon)
@@ -157,7 +158,7 @@ class AdaptiveDLS(Solver):
         """sup ‖q̇‖/‖ξ‖ over all J for the σ modes (see the class docstring)."""
         return _gain_bound_adaptive(self.epsilon, self.max_damping)
 
-    def damping_at(self, sigma):
+    def damping_at(self, sigma: ArrayLike):
         """λ(σ) of the schedule (scalar or array)."""
         return adaptive_damping(sigma, epsilon=self.epsilon, max_damping=self.max_damping)
 
@@ -258,7 +259,7 @@ class SDLS(Solver):
 
     def __init__(self, *, gamma_max: float = math.pi / 4, characteristic_length: float = 1.0,
                  tolerance: float = 1e-9, velocity_policy: str | None = "scale",
-                 task_weights=None, joint_weights=None) -> None:
+                 task_weights: ArrayLike | None = None, joint_weights: ArrayLike | None = None) -> None:
         super().__init__(velocity_policy=velocity_policy, task_weights=task_weights,
                          joint_weights=joint_weights)
         self.gamma_max = _positive("gamma_max", gamma_max)

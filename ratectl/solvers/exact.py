@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError, SingularityError
 from .base import Solver, _check_finite, _dgesdd, _dgesv, _positive
@@ -31,7 +32,7 @@ class Inverse(Solver):
     method = "inverse"
 
     def __init__(self, *, tolerance: float = 1e-6, velocity_policy: str | None = None,
-                 task_weights=None, joint_weights=None) -> None:
+                 task_weights: ArrayLike | None = None, joint_weights: ArrayLike | None = None) -> None:
         super().__init__(velocity_policy=velocity_policy, task_weights=task_weights,
                          joint_weights=joint_weights)
         self.tolerance = _positive("tolerance", tolerance, allow_zero=True)
@@ -70,7 +71,7 @@ class PseudoInverse(Solver):
     method = "pinv"
 
     def __init__(self, *, tolerance: float = 1e-6, velocity_policy: str | None = "scale",
-                 task_weights=None, joint_weights=None) -> None:
+                 task_weights: ArrayLike | None = None, joint_weights: ArrayLike | None = None) -> None:
         super().__init__(velocity_policy=velocity_policy, task_weights=task_weights,
                          joint_weights=joint_weights)
         self.tolerance = _positive("tolerance", tolerance, allow_zero=True)

@@ -4,11 +4,18 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from .base import Solver, SolveResult, _check_problem, _make_result, _positive
 from .exact import _svd
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+    from ..model.limits import Limits
 
 __all__ = ['NullSpace', 'JointCentring', 'Manipulability', 'Gradient']
 
@@ -22,7 +29,7 @@ class JointCentring:
     limits are left alone. ``limits`` is a Chain or `Limits`.
     """
 
-    def __init__(self, limits) -> None:
+    def __init__(self, limits: Limits | Chain) -> None:
         lower = np.asarray(limits.lower, dtype=float)
         upper = np.asarray(limits.upper, dtype=float)
         finite = np.isfinite(lower) & np.isfinite(upper)
@@ -30,7 +37,7 @@ class JointCentring:
         half = np.where(finite, 0.5 * (upper - lower), 1.0)
         self._w = np.where(finite, 1.0 / half**2, 0.0)
 
-    def cost(self, q) -> float:
+    def cost(self, q: ArrayLike) -> float:
         """H(q), dimensionless."""
         d = np.asarray(q, dtype=float) - self.centre
         return 0.5 * float(d @ (self._w * d))
@@ -43,7 +50,7 @@ class Manipulability:
     """Secondary objective: increase the manipulability w(q) = √det(JJᵀ) of ``chain``;
     z = ∇w(q) from `ratectl.singularity.manipulability_gradient`."""
 
-    def __init__(self, chain) -> None:
+    def __init__(self, chain: Chain) -> None:
         self.chain = chain
 
     def __call__(self, q) -> np.ndarray:
@@ -58,7 +65,7 @@ class Gradient:
     ``maximize=False`` (default) descends the cost (z = −∇H); ``True`` ascends it.
     """
 
-    def __init__(self, f, *, maximize: bool = False) -> None:
+    def __init__(self, f: Any, *, maximize: bool = False) -> None:
         if not callable(f):
             raise InputError(f"Gradient needs a callable f(q) -> (n,), got {f!r}", argument="f",
                              value=f)
@@ -113,8 +120,9 @@ class NullSpace(Solver):
 
     method = "nullspace"
 
-    def __init__(self, primary: Solver, objective="centring", *, gain: float = 1.0, chain=None,
-                 tolerance: float = 1e-6, velocity_policy: str | None = "scale") -> None:
+    def __init__(self, primary: Solver, objective: Any = "centring", *, gain: float = 1.0,
+                 chain: Chain | None = None, tolerance: float = 1e-6,
+                 velocity_policy: str | None = "scale") -> None:
         super().__init__(velocity_policy=velocity_policy)
         if not isinstance(primary, Solver):
             raise InputError(f"primary must be a ratectl solver, got {primary!r}",
@@ -125,7 +133,9 @@ class NullSpace(Solver):
         self.tolerance = _positive("tolerance", tolerance, allow_zero=True)
         self.method = f"nullspace({primary.method})"
 
-    def solve(self, J, xi, *, limits=None, q=None, qd_prev=None, dt=None) -> SolveResult:
+    def solve(self, J: np.ndarray, xi: np.ndarray, *, limits: Limits | Chain | None = None,
+              q: ArrayLike | None = None, qd_prev: ArrayLike | None = None,
+              dt: float | None = None) -> SolveResult:
         """As `Solver.solve`; ``q`` (n,) is required for the objective."""
         J, xi = _check_problem(J, xi)
         m, n = J.shape

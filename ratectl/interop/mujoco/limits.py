@@ -151,7 +151,7 @@ class MinkLimitedSolver:
             raise AttributeError(name)
         return getattr(self.__dict__["solver"], name)
 
-    def solve(self, J: ArrayLike, xi: ArrayLike, *, limits: Limits | Chain | None = None,
+    def solve(self, J: np.ndarray, xi: np.ndarray, *, limits: Limits | Chain | None = None,
               q: ArrayLike | None = None, qd_prev: ArrayLike | None = None, dt: float | None = None,
               **options: Any) -> SolveResult:
         if q is None or dt is None:

@@ -4,6 +4,8 @@ certificate, and the polish of an approximate backend answer on its active set.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy.linalg import cho_solve
 from scipy.linalg import lapack as _lapack
@@ -91,7 +93,8 @@ def _box_active_set(P, b, lo, hi, x0, max_iter: int = 4, lists=None):
     return None, None, max_iter
 
 
-def box_qp_exact(P, b, lo, hi, x_start=None, *, max_iter: int | None = None):
+def box_qp_exact(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, x_start: Any = None, *,
+                 max_iter: int | None = None):
     """The exact minimiser of ½xᵀPx − bᵀx over lo ≤ x ≤ hi (P symmetric positive definite)
     by a primal active-set method that stays feasible (Nocedal & Wright, Algorithm 16.3,
     specialised to bounds).
@@ -161,7 +164,7 @@ def box_qp_exact(P, b, lo, hi, x_start=None, *, max_iter: int | None = None):
     return None, None
 
 
-def kkt_violation(P, b, lo, hi, x) -> float:
+def kkt_violation(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.ndarray) -> float:
     """How far x is from the optimum of ½xᵀPx − bᵀx over lo ≤ x ≤ hi, as the largest
     violation of the KKT conditions scaled by the problem's size: bound violation
     max(lo − x, x − hi, 0) and the projected gradient g = Px − b (zero for a free joint,
@@ -218,7 +221,8 @@ def _polish(P, b, lo, hi, x):
     return np.minimum(np.maximum(xa, lo), hi)
 
 
-def polish_general(P, b, lo, hi, G, h, x, *, tol_act: float = 1e-6):
+def polish_general(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, G: np.ndarray, h: np.ndarray,
+                   x: np.ndarray, *, tol_act: float = 1e-6):
     """The exact solution of min ½xᵀPx − bᵀx s.t. lo ≤ x ≤ hi, G x ≤ h on the active set of
     an approximate solution ``x`` (from OSQP), with its certificate; or None.
 
@@ -268,7 +272,7 @@ def polish_general(P, b, lo, hi, G, h, x, *, tol_act: float = 1e-6):
     return np.minimum(np.maximum(xs, lo), hi)
 
 
-def qp_via_dual(P, b, lo, hi, G, h):
+def qp_via_dual(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, G: np.ndarray, h: np.ndarray):
     """The exact minimiser of ½xᵀPx − bᵀx s.t. lo ≤ x ≤ hi, G x ≤ h (P positive definite)
     through its dual, a bound-constrained QP solved by `box_qp_exact`; or None.
 

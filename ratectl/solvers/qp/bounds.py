@@ -5,6 +5,7 @@ limits (`joint_velocity_bounds`), with the source of every active bound.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -13,6 +14,9 @@ from ...model.limits import Limits, braking_speed_discrete
 from ..base import (
     _positive,
 )
+
+if TYPE_CHECKING:
+    from ...model.chain import Chain
 
 __all__ = ['joint_velocity_bounds', 'VelocityBounds']
 
@@ -70,7 +74,7 @@ class _BoundCache:
                  "has_pos", "has_acc", "inv_dt", "lim2", "sgn2", "idx2", "vmax2", "adt", "inv_adt2",
                  "adt2", "inv_adt22", "two_a", "dstar2", "vmax_l", "amax_dt_l")
 
-    def __init__(self, src, limits: Limits, dt, margin):
+    def __init__(self, src: Any, limits: Limits, dt: float, margin: Any):
         self.src, self.dt = src, dt
         self.limits = limits
         n = self.n = limits.vmax.shape[0]
@@ -238,7 +242,8 @@ def _bounds(cache: _BoundCache, q, qd_prev, want_sources: bool):
     return lo, hi, slo, shi, tuple(conflicts)
 
 
-def joint_velocity_bounds(limits, *, q=None, qd_prev=None, dt=None, margin: float = 0.0,
+def joint_velocity_bounds(limits: Limits | Chain, *, q: np.ndarray | None = None,
+                          qd_prev: np.ndarray | None = None, dt: float | None = None, margin: float = 0.0,
                           n: int | None = None) -> VelocityBounds:
     """The per-joint box on q̇ for one step from velocity, position and acceleration
     limits (see `ratectl.qp`). ``limits`` is a Chain or `Limits`; ``q``

@@ -5,8 +5,10 @@ velocity and acceleration bounds and extra inequality rows.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.linalg import lapack as _lapack
 
 from ...errors import InputError, SolverError
@@ -31,6 +33,9 @@ from .active_set import (
 )
 from .bounds import _BIG, _BoundCache, _box, _sources, _vec
 from .warm_osqp import _OSQP_DEFAULTS, _WarmOSQP
+
+if TYPE_CHECKING:
+    from ...model.chain import Chain
 
 __all__ = ['QP']
 
@@ -81,10 +86,10 @@ class QP(Solver):
     enforces_limits = True
 
     def __init__(self, *, damping: float = 0.05, backend: str = "osqp", margin: float = 0.0,
-                 task_weights=None, joint_weights=None, objective=None,
-                 objective_weight: float = 1e-3, objective_gain: float = 1.0, chain=None,
-                 fallback: bool = False, tolerance: float = 1e-6, settings: dict | None = None,
-                 shortcut: bool = True) -> None:
+                 task_weights: ArrayLike | None = None, joint_weights: ArrayLike | None = None,
+                 objective: Any = None, objective_weight: float = 1e-3, objective_gain: float = 1.0,
+                 chain: Chain | None = None, fallback: bool = False, tolerance: float = 1e-6,
+                 settings: dict | None = None, shortcut: bool = True) -> None:
         super().__init__(velocity_policy="scale", task_weights=task_weights,
                          joint_weights=joint_weights)
         self.damping = _positive("damping", damping, allow_zero=True)
@@ -124,8 +129,9 @@ class QP(Solver):
         """Forget the warm OSQP instance (the next call sets it up again)."""
         self._warm = None
 
-    def solve(self, J, xi, *, limits=None, q=None, qd_prev=None, dt=None,
-              extra_inequalities=None, qd_ff=None) -> SolveResult:
+    def solve(self, J: np.ndarray, xi: np.ndarray, *, limits: Limits | Chain | None = None,
+              q: ArrayLike | None = None, qd_prev: ArrayLike | None = None, dt: float | None = None,
+              extra_inequalities: Any = None, qd_ff: ArrayLike | None = None) -> SolveResult:
         """q̇ for the twist ``xi`` with the Jacobian ``J`` under the joint limits.
 
         Args:

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 _OSQP_DEFAULTS = dict(
@@ -22,7 +24,8 @@ _OSQP_DEFAULTS = dict(
 class _WarmOSQP:
     """One OSQP instance set up for a fixed structure (n, extra rows k) and updated in place."""
 
-    def __init__(self, n, k, P, c, G, h, lo, hi, settings):
+    def __init__(self, n: Any, k: Any, P: np.ndarray, c: np.ndarray, G: np.ndarray, h: np.ndarray,
+                 lo: np.ndarray, hi: np.ndarray, settings: Any):
         import osqp
         import scipy.sparse as sp
 
@@ -49,7 +52,8 @@ class _WarmOSQP:
         self._s = getattr(self.osqp, "_solver", None)
         self._lk = np.full(k, -1e30)
 
-    def solve(self, P, c, G, h, lo, hi):
+    def solve(self, P: np.ndarray, c: np.ndarray, G: np.ndarray, h: np.ndarray, lo: np.ndarray,
+              hi: np.ndarray):
         s = self._s
         Px = P[self.pr, self.pc]
         if self.k:
