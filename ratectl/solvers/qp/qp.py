@@ -164,22 +164,92 @@ class QP(Solver):
             (``lower``, ``upper``) and any ``conflicts`` resolved by priority.
         """
         J, xi = _check_problem(J, xi)
-        m, n = J.shape
+        n = J.shape[1]
+        qv, qd_prev_v, qd_ff_v, dt_v = self._check_state(q, qd_prev, qd_ff, dt, n)
+        Jw, P, b = self._objective_terms(J, xi, qv)
+        conflicts: tuple = ()
+        bc: _BoundCache | None = None
+        lo = hi = lo_t = hi_t = None
+        if limits is not None:
+            bc = self._bcache
+            if bc is None or bc.src is not limits or bc.dt != dt_v or bc.n != n:
+                bc = self._bcache = _BoundCache(limits, Limits.of(limits, n), dt_v, self.margin)
+            lo, hi, conflicts = _box(bc, qv, qd_prev_v)
+            lo_t, hi_t = lo, hi  # the box of the total q̇_ff + c
+            if qd_ff_v is not None:
+                lo, hi = lo - qd_ff_v, hi - qd_ff_v
+        G = h = None
+        if extra_inequalities is not None:
+            G, h = _extra(extra_inequalities, n)
+            if qd_ff_v is not None:
+                h = h - _dot(G, qd_ff_v)
+        qd, held, status, niter, slack = self._shortcut(P, b, lo, hi, G, h)
+        certified = status if qd is not None else None
+        if qd is None:
+            answer = self._solve_and_certify(J, xi, P, b, G, h, lo, hi)
+            if isinstance(answer, SolveResult):  # the fallback answered
+                return answer
+            qd, held, status, niter, certified, slack = answer
+        if G is not None and h is not None:  # the extra rows: feasible to the tolerance
+            gv = float(np.max(_dot(G, qd) - h)) if G.shape[0] else 0.0
+            if gv > self.tolerance * (1.0 + float(np.max(np.abs(qd)))):
+                err = SolverError(f"QP ({self.backend}) solution violates an extra inequality by "
+                                  f"{gv:.2e}", status=status,
+                                  problem=self._problem(P, -b, G, h, lo, hi))
+                if not self.fallback:
+                    raise err
+                return self._fallback_result(J, xi, lo if lo is not None else np.full(n, -_BIG),
+                                             hi if hi is not None else np.full(n, _BIG), err)
+        achieved = _dot(J, qd)
+        task_error = xi - achieved
+        e = sum(task_error.tolist())
+        if e - e != 0.0:
+            _check_finite(J, xi)
+            raise SolverError("QP: the solution is not finite", status="non-finite",
+                              problem=self._problem(P, -b, G, h, lo, hi))
+        bound, active = self._bound_sources(qd, held, lo, hi, lo_t, hi_t, bc, qd_prev_v, slack)
+        info: dict[str, Any] = {"status": status, "iterations": niter, "backend": self.backend,
+                                "lower": lo, "upper": hi}
+        if certified is not None:
+            info["certified"] = certified
+        if conflicts:
+            info["conflicts"] = conflicts
+        if G is not None and h is not None:
+            info["extra_active"] = _dot(G, qd) >= h - self.tolerance
+        return SolveResult(qd=qd, achieved=achieved, task_error=task_error, damping=self.damping,
+                           sigma_min=_LazySigma(None, Jw), method=self.method, bound=bound,
+                           limits_active=active, info=info)
+
+    # ------------------------------------------------------------------ stages of solve
+    def _check_state(self, q: ArrayLike | None, qd_prev: ArrayLike | None, qd_ff: ArrayLike | None,
+                     dt: float | None, n: int
+                     ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None, float | None]:
+        """q, q̇_prev, q̇_ff as finite (n,) float arrays and dt as a positive float (or None)."""
         if dt is not None and (type(dt) is not float or not (dt > 0.0 and dt < math.inf)):
             dt = _positive("dt", dt)
+        qv = None
         if q is not None:
             if type(q) is not np.ndarray or q.shape != (n,) or q.dtype != np.float64:
-                q = _vec("q", q, n)
+                qv = _vec("q", q, n)
             else:
                 t = sum(q.tolist())
-                if t - t != 0.0:  # NaN or inf: the position bounds cannot be computed
-                    q = _vec("q", q, n)
-        if qd_prev is not None and (type(qd_prev) is not np.ndarray or qd_prev.shape != (n,)
-                                    or not math.isfinite(sum(qd_prev.tolist()))):
-            qd_prev = _vec("qd_prev", qd_prev, n)
-        if qd_ff is not None:
-            qd_ff = _vec("qd_ff", qd_ff, n)
-        # objective ½‖W(Jq̇ − ξ)‖² + ½λ²q̇ᵀW_q q̇ (+ ½μ‖q̇ − z‖²)  →  ½q̇ᵀPq̇ − bᵀq̇
+                # NaN or inf: the position bounds cannot be computed (_vec raises)
+                qv = _vec("q", q, n) if t - t != 0.0 else q
+        qd_prev_v = None
+        if qd_prev is not None:
+            if (type(qd_prev) is not np.ndarray or qd_prev.shape != (n,)
+                    or not math.isfinite(sum(qd_prev.tolist()))):
+                qd_prev_v = _vec("qd_prev", qd_prev, n)
+            else:
+                qd_prev_v = qd_prev
+        qd_ff_v = None if qd_ff is None else _vec("qd_ff", qd_ff, n)
+        return qv, qd_prev_v, qd_ff_v, dt
+
+    def _objective_terms(self, J: np.ndarray, xi: np.ndarray,
+                         q: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(weighted J, P, b) of the objective ½‖W(Jq̇ − ξ)‖² + ½λ²q̇ᵀW_q q̇ (+ ½μ‖q̇ − z‖²)
+        = ½q̇ᵀPq̇ − bᵀq̇."""
+        m, n = J.shape
         if self._rows is not None:
             rows, mw = self._rows
             if m != mw:
@@ -213,162 +283,147 @@ class QP(Solver):
                                  argument="objective", value=z)
             P = P + self.objective_weight * np.eye(n)
             b = b + self.objective_weight * z
-        # the velocity box
-        conflicts = ()
-        if limits is None:
-            lo = hi = None
-        else:
-            bc = self._bcache
-            if bc is None or bc.src is not limits or bc.dt != dt or bc.n != n:
-                bc = self._bcache = _BoundCache(limits, Limits.of(limits, n), dt, self.margin)
-            lo, hi, conflicts = _box(bc, q, qd_prev)
-            lo_t, hi_t = lo, hi  # the box of the total q̇_ff + c
-            if qd_ff is not None:
-                lo, hi = lo - qd_ff, hi - qd_ff
-        G = h = None
-        if extra_inequalities is not None:
-            G, h = _extra(extra_inequalities, n)
-            if qd_ff is not None:
-                h = h - _dot(G, qd_ff)
-        # shortcut: the unconstrained minimiser P⁻¹b (= the DLS solution) if it is feasible
+        return Jw, P, b
+
+    def _shortcut(self, P: np.ndarray, b: np.ndarray, lo: np.ndarray | None, hi: np.ndarray | None,
+                  G: np.ndarray | None, h: np.ndarray | None) -> tuple[Any, Any, str, int, float]:
+        """The unconstrained minimiser P⁻¹b (= the DLS solution) if it is feasible, else for a
+        box-only problem a few certified primal active-set steps from it; ``(qd, held, status,
+        iterations, slack)`` with qd None when neither answers."""
         qd = held = None
+        status, niter, slack = "", 0, math.inf
+        if not (self.shortcut and self._pd):
+            return qd, held, status, niter, slack
+        _, x0, info0 = _dposv(P, b)
+        if info0 != 0:
+            return qd, held, status, niter, slack
+        lists = None
+        if lo is not None and hi is not None:
+            lists = (x0.tolist(), lo.tolist(), hi.tolist())
+            slack = min(min(u - x, x - lv) for x, lv, u in zip(*lists, strict=True))
+        if slack >= 0.0 and (G is None or h is None or bool(np.all(_dot(G, x0) <= h))):
+            return x0, None, "unconstrained", 0, slack
+        if G is None and lo is not None and hi is not None and self.backend == "osqp":
+            # a box-only problem: a few primal active-set steps from x0, accepted only with a
+            # KKT certificate (then it is the exact optimum); the Schur-complement steps lose
+            # accuracy when P is ill-conditioned (tiny damping): certify, else let the backend
+            # and the exact active set answer
+            qd, held, niter = _box_active_set(P, b, lo, hi, x0, lists=lists)
+            if qd is not None:
+                status = "active-set"
+                if kkt_violation(P, b, lo, hi, qd) > _KKT_TOL:
+                    qd = held = None
+        return qd, held, status, niter, slack
+
+    def _solve_and_certify(self, J: np.ndarray, xi: np.ndarray, P: np.ndarray, b: np.ndarray,
+                           G: np.ndarray | None, h: np.ndarray | None, lo: np.ndarray | None,
+                           hi: np.ndarray | None) -> SolveResult | tuple:
+        """The backend's answer, certified (KKT, exact active set or dual) and clipped into the
+        box; ``(qd, held, status, iterations, certified, slack)``, or the fallback's result."""
+        n = P.shape[0]
+        lo_ = np.full(n, -_BIG) if lo is None else lo
+        hi_ = np.full(n, _BIG) if hi is None else hi
+        held = None
+        certified = None
         slack = math.inf
-        if self.shortcut and self._pd:
-            _, x0, info0 = _dposv(P, b)
-            if info0 == 0:
-                if lo is not None:
-                    lists = (x0.tolist(), lo.tolist(), hi.tolist())
-                    slack = min(min(u - x, x - l) for x, l, u in zip(*lists, strict=True))
-                if slack >= 0.0 and (G is None or bool(np.all(_dot(G, x0) <= h))):
-                    qd, status, niter = x0, "unconstrained", 0
-                elif G is None and lo is not None and self.backend == "osqp":
-                    # a box-only problem: a few primal active-set steps from x0, accepted
-                    # only with a KKT certificate (then it is the exact optimum)
-                    qd, held, niter = _box_active_set(P, b, lo, hi, x0, lists=lists)
-                    if qd is not None:
-                        status = "active-set"
-                        # the Schur-complement steps lose accuracy when P is ill-conditioned
-                        # (tiny damping): certify, else let the backend and the exact
-                        # active set below answer
-                        if kkt_violation(P, b, lo, hi, qd) > _KKT_TOL:
-                            qd = held = None
-        certified = status if qd is not None else None
-        if qd is None:
-            lo_ = np.full(n, -_BIG) if lo is None else lo
-            hi_ = np.full(n, _BIG) if hi is None else hi
-            try:
-                qd, status, niter, exact = self._backend_solve(P, -b, G, h, lo_, hi_)
-            except SolverError as exc:
-                if G is None and lo is not None:  # a box-only problem has an exact answer
-                    qd, st2 = box_qp_exact(P, b, lo, hi, None)
-                    if qd is not None:
-                        status, niter, exact = "exact-active-set", -1, True
-                        held = st2.tolist()
-                elif (G is not None and getattr(exc, "iterate", None) is not None
-                      and "max_iter" not in self.settings):  # a budget the user set is kept
-                    # OSQP ran out of iterations (ill-conditioned P): one cold retry with a
-                    # much larger budget (a rare path), accepted only with the KKT
-                    # certificate of the exact solution on its active set
-                    try:
-                        cold = _WarmOSQP(n, G.shape[0], P, -b, G, h, lo_, hi_,
-                                         {**self._osqp_settings, "max_iter": 200_000})
-                        x, sv, _, it2, _ = cold.solve(P, -b, G, h, lo_, hi_)
-                    except Exception:  # OSQP's own exception types
-                        x, sv = None, 0
-                    if sv in (1, 2) and x is not None and np.all(np.isfinite(x)):
-                        qd = polish_general(P, b, lo_, hi_, G, h, np.array(x))
-                        if qd is not None:
-                            status, niter, exact = "solved (retry)", it2, True
-                    if qd is None:  # the exact answer through the dual (a box QP)
-                        qd = qp_via_dual(P, b, lo_, hi_, G, h)
-                        if qd is not None:
-                            status, niter, exact = "exact-dual", -1, True
-                if qd is None:
-                    if not self.fallback:
-                        raise
-                    return self._fallback_result(J, xi, lo_, hi_, exc)
-            if G is None and lo is not None and held is None:
-                if not exact:
-                    refined = _polish(P, b, lo, hi, qd)
-                    if refined is not None:
-                        qd = refined
-                # certify: inside the box and optimal (KKT); else the exact active set
-                if kkt_violation(P, b, lo, hi, qd) <= _KKT_TOL:
-                    certified = "kkt"
-                else:
-                    x2, st2 = box_qp_exact(P, b, lo, hi, qd)
-                    if x2 is None or kkt_violation(P, b, lo, hi, x2) > _KKT_TOL:
-                        exc = SolverError(
-                            f"QP ({self.backend}): no answer satisfies the optimality (KKT) "
-                            "conditions; the problem is too ill-conditioned", status="uncertified",
-                            problem=self._problem(P, -b, G, h, lo, hi))
-                        if not self.fallback:
-                            raise exc
-                        return self._fallback_result(J, xi, lo, hi, exc)
-                    qd, status, certified = x2, "exact-active-set", "exact-active-set"
-                    held = st2.tolist()
-            elif G is not None:
-                # extra rows: the exact solution on OSQP's active set, with its KKT certificate
-                x2 = polish_general(P, b, lo_, hi_, G, h, qd)
-                if x2 is not None:
-                    qd, certified = x2, "kkt"
-                else:
-                    certified = "none"  # feasibility is still checked below
-            if lo is not None:
-                # clip into the box (violations up to the tolerance are numerical)
-                slack = min(float((hi - qd).min()), float((qd - lo).min()))
-                if slack < 0.0:
-                    if slack < -self.tolerance:
-                        exc = SolverError(
-                            f"QP ({self.backend}) solution violates its bounds by {-slack:.2e} > "
-                            f"tolerance {self.tolerance:.1e}", status=status,
-                            problem=self._problem(P, -b, G, h, lo, hi))
-                        if not self.fallback:
-                            raise exc
-                        return self._fallback_result(J, xi, lo, hi, exc)
-                    qd = np.minimum(np.maximum(qd, lo), hi)
-        if G is not None:  # the extra rows: feasible to the tolerance
-            gv = float(np.max(_dot(G, qd) - h)) if G.shape[0] else 0.0
-            if gv > self.tolerance * (1.0 + float(np.max(np.abs(qd)))):
-                exc = SolverError(f"QP ({self.backend}) solution violates an extra inequality by "
-                                  f"{gv:.2e}", status=status,
-                                  problem=self._problem(P, -b, G, h, lo, hi))
+        try:
+            qd, status, niter, exact = self._backend_solve(P, -b, G, h, lo_, hi_)
+        except SolverError as exc:
+            rescued = self._rescue(P, b, G, h, lo, hi, lo_, hi_, exc)
+            if rescued is None:
                 if not self.fallback:
-                    raise exc
-                return self._fallback_result(J, xi, lo if lo is not None else np.full(n, -_BIG),
-                                             hi if hi is not None else np.full(n, _BIG), exc)
-        achieved = _dot(J, qd)
-        err = xi - achieved
-        e = sum(err.tolist())
-        if e - e != 0.0:
-            _check_finite(J, xi)
-            raise SolverError("QP: the solution is not finite", status="non-finite",
-                              problem=self._problem(P, -b, G, h, lo, hi))
-        # which bounds hold q̇
-        active = ()
-        if held is not None:  # the active-set step knows which bounds hold
-            bound = np.array(held, dtype=bool)
-            active = _sources(bc, qd_prev, lo_t, hi_t, held)
-        elif lo is not None and slack < self.tolerance:
+                    raise
+                return self._fallback_result(J, xi, lo_, hi_, exc)
+            qd, status, niter, exact, held = rescued
+        if G is None and lo is not None and hi is not None and held is None:
+            if not exact:
+                refined = _polish(P, b, lo, hi, qd)
+                if refined is not None:
+                    qd = refined
+            # certify: inside the box and optimal (KKT); else the exact active set
+            if kkt_violation(P, b, lo, hi, qd) <= _KKT_TOL:
+                certified = "kkt"
+            else:
+                x2, st2 = box_qp_exact(P, b, lo, hi, qd)
+                if x2 is None or kkt_violation(P, b, lo, hi, x2) > _KKT_TOL:
+                    err = SolverError(
+                        f"QP ({self.backend}): no answer satisfies the optimality (KKT) "
+                        "conditions; the problem is too ill-conditioned", status="uncertified",
+                        problem=self._problem(P, -b, G, h, lo, hi))
+                    if not self.fallback:
+                        raise err
+                    return self._fallback_result(J, xi, lo, hi, err)
+                qd, status, certified = x2, "exact-active-set", "exact-active-set"
+                held = st2.tolist()
+        elif G is not None and h is not None:
+            # extra rows: the exact solution on OSQP's active set, with its KKT certificate
+            x2 = polish_general(P, b, lo_, hi_, G, h, qd)
+            if x2 is not None:
+                qd, certified = x2, "kkt"
+            else:
+                certified = "none"  # feasibility is still checked by solve
+        if lo is not None and hi is not None:
+            # clip into the box (violations up to the tolerance are numerical)
+            slack = min(float((hi - qd).min()), float((qd - lo).min()))
+            if slack < 0.0:
+                if slack < -self.tolerance:
+                    err = SolverError(
+                        f"QP ({self.backend}) solution violates its bounds by {-slack:.2e} > "
+                        f"tolerance {self.tolerance:.1e}", status=status,
+                        problem=self._problem(P, -b, G, h, lo, hi))
+                    if not self.fallback:
+                        raise err
+                    return self._fallback_result(J, xi, lo, hi, err)
+                qd = np.minimum(np.maximum(qd, lo), hi)
+        return qd, held, status, niter, certified, slack
+
+    def _rescue(self, P: np.ndarray, b: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
+                lo: np.ndarray | None, hi: np.ndarray | None, lo_: np.ndarray, hi_: np.ndarray,
+                exc: SolverError) -> tuple | None:
+        """An exact answer where the backend failed: the box-only problem by the exact active set;
+        with extra rows one cold OSQP retry with a larger budget (then its certified polish), else
+        the dual. ``(qd, status, iterations, exact, held)`` or None."""
+        if G is None or h is None:
+            if lo is not None and hi is not None:  # a box-only problem has an exact answer
+                qd, st2 = box_qp_exact(P, b, lo, hi, None)
+                if qd is not None:
+                    return qd, "exact-active-set", -1, True, st2.tolist()
+            return None
+        n = P.shape[0]
+        if getattr(exc, "iterate", None) is None or "max_iter" in self.settings:
+            return None  # not a budget problem, or a budget the user set: the failure stands
+        # OSQP ran out of iterations (ill-conditioned P): one cold retry with a much larger
+        # budget, accepted only with the KKT certificate of the exact solution on its
+        # active set
+        try:
+            cold = _WarmOSQP(n, G.shape[0], P, -b, G, h, lo_, hi_,
+                             {**self._osqp_settings, "max_iter": 200_000})
+            x, sv, _, it2, _ = cold.solve(P, -b, G, h, lo_, hi_)
+        except Exception:  # OSQP's own exception types
+            x, sv = None, 0
+        if sv in (1, 2) and x is not None and np.all(np.isfinite(x)):
+            qd = polish_general(P, b, lo_, hi_, G, h, np.array(x))
+            if qd is not None:
+                return qd, "solved (retry)", it2, True, None
+        qd = qp_via_dual(P, b, lo_, hi_, G, h)  # the exact answer through the dual (a box QP)
+        if qd is not None:
+            return qd, "exact-dual", -1, True, None
+        return None
+
+    def _bound_sources(self, qd: np.ndarray, held: Any, lo: np.ndarray | None, hi: np.ndarray | None,
+                       lo_t: np.ndarray | None, hi_t: np.ndarray | None, bc: _BoundCache | None,
+                       qd_prev: np.ndarray | None, slack: float) -> tuple[np.ndarray, tuple[str, ...]]:
+        """Which joints sit at a bound, and the kinds of limit that set those bounds."""
+        n = qd.shape[0]
+        if held is not None and bc is not None:  # the active-set step knows which bounds hold
+            return np.array(held, dtype=bool), _sources(bc, qd_prev, lo_t, hi_t, held)
+        if lo is not None and hi is not None and bc is not None and slack < self.tolerance:
             tol = self.tolerance
             at_hi = qd >= hi - tol  # an absent bound is ±1e15: never reached
             at_lo = qd <= lo + tol
-            bound = at_hi | at_lo
-            active = _sources(bc, qd_prev, lo_t, hi_t,
-                              (at_hi.astype(int) - (at_lo & ~at_hi)).tolist())
-        else:
-            bound = _zeros(n, dtype=bool)
-        info = {"status": status, "iterations": niter, "backend": self.backend, "lower": lo,
-                "upper": hi}
-        if certified is not None:
-            info["certified"] = certified
-        if conflicts:
-            info["conflicts"] = conflicts
-        if G is not None:
-            info["extra_active"] = _dot(G, qd) >= h - self.tolerance
-        return SolveResult(qd=qd, achieved=achieved, task_error=err, damping=self.damping,
-                           sigma_min=_LazySigma(None, Jw), method=self.method, bound=bound,
-                           limits_active=active, info=info)
+            return at_hi | at_lo, _sources(bc, qd_prev, lo_t, hi_t,
+                                           (at_hi.astype(int) - (at_lo & ~at_hi)).tolist())
+        return _zeros(n, dtype=bool), ()
 
     # ------------------------------------------------------------------ backends
     @staticmethod
