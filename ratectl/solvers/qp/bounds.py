@@ -5,7 +5,7 @@ limits (`joint_velocity_bounds`), with the source of every active bound.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -74,7 +74,7 @@ class _BoundCache:
                  "has_pos", "has_acc", "inv_dt", "lim2", "sgn2", "idx2", "vmax2", "adt", "inv_adt2",
                  "adt2", "inv_adt22", "two_a", "dstar2", "vmax_l", "amax_dt_l")
 
-    def __init__(self, src: Any, limits: Limits, dt: float, margin: Any):
+    def __init__(self, src, limits, dt, margin):  # private: the numbers are checked by its callers
         self.src, self.dt = src, dt
         self.limits = limits
         n = self.n = limits.vmax.shape[0]
@@ -152,7 +152,7 @@ def _box(bc: _BoundCache, q, qd_prev):
     return lo, hi, ()
 
 
-def _sources(bc: _BoundCache, qd_prev, lo, hi, held) -> tuple[str, ...]:
+def _sources(bc, qd_prev, lo, hi, held) -> tuple[str, ...]:  # private: bc is a _BoundCache
     """Kinds of limit that set the active bounds; ``held[i]`` is +1 / −1 / 0 for a joint
     at its upper / lower bound / free. The box values are exact copies of the velocity
     limit, the acceleration bound or a position bound, so equality identifies them
@@ -160,13 +160,15 @@ def _sources(bc: _BoundCache, qd_prev, lo, hi, held) -> tuple[str, ...]:
     kinds = set()
     vmax = bc.vmax_l
     acc = qd_prev is not None and bc.amax_dt is not None and bc.has_acc
-    lol = hil = qdl = None
+    lol: list[float] = []
+    hil: list[float] = []
+    qdl: list[float] = []
     for i, st in enumerate(held):
         if not st:
             continue
-        if lol is None:
+        if not lol:
             lol, hil = lo.tolist(), hi.tolist()
-            qdl = qd_prev.tolist() if acc else None
+            qdl = qd_prev.tolist() if acc else []
         v = hil[i] if st > 0 else lol[i]
         if v == st * vmax[i]:
             kinds.add(_VEL)
@@ -182,7 +184,7 @@ def _careful(bc, q, qd_prev):
     return lo, hi, conflicts
 
 
-def _bounds(cache: _BoundCache, q, qd_prev, want_sources: bool):
+def _bounds(cache, q, qd_prev, want_sources):  # private: cache is a _BoundCache
     """The velocity box (lo, hi), its sources and the conflicts; see the module docstring."""
     lo = cache.nvmax
     hi = cache.vmax

@@ -397,7 +397,7 @@ class QP(Solver):
         # active set
         try:
             cold = _WarmOSQP(n, G.shape[0], P, -b, G, h, lo_, hi_,
-                             {**self._osqp_settings, "max_iter": 200_000})
+                             {**(self._osqp_settings or {}), "max_iter": 200_000})
             x, sv, _, it2, _ = cold.solve(P, -b, G, h, lo_, hi_)
         except Exception:  # OSQP's own exception types
             x, sv = None, 0
@@ -446,10 +446,10 @@ class QP(Solver):
                                   status="error", problem=self._problem(P, c, G, h, lo, hi)) from exc
             if sv not in (1, 2) or not np.all(np.isfinite(x)):  # 1 solved, 2 solved inaccurate
                 self._warm = None
-                exc = SolverError(f"OSQP failed: status {status!r}", status=status,
-                                  problem=self._problem(P, c, G, h, lo, hi))
-                exc.iterate = np.array(x) if np.all(np.isfinite(x)) else None  # for a polish
-                raise exc
+                failure = SolverError(f"OSQP failed: status {status!r}", status=status,
+                                      problem=self._problem(P, c, G, h, lo, hi))
+                failure.iterate = np.array(x) if np.all(np.isfinite(x)) else None  # for a polish
+                raise failure
             return np.array(x), status, niter, polish == 1
         import qpsolvers
 
