@@ -383,12 +383,19 @@ class ResolvedRateController:
     def _solve(self, cyc: _Cycle, q, dt, qd_ff) -> Command | None:
         """q̇ = q̇_ff + solver(J, ξ); a solver failure or a non-finite answer halts (returns
         the halt's Command), otherwise fills ``cyc.qd``, ``cyc.res`` and the status lists."""
-        if qd_ff is None:
-            q_s, qd_prev_s = q, self._qd
-        else:  # the solver resolves the correction on top of q̇_ff: shift its bounds accordingly
-            q_s, qd_prev_s = q + qd_ff * dt, self._qd - qd_ff
         try:
-            res = self.solver.solve(cyc.J, cyc.xi, limits=self.limits, q=q_s, qd_prev=qd_prev_s, dt=dt)
+            if qd_ff is not None and isinstance(self.solver, solvers.QP):
+                # the QP bounds the total q̇_ff + correction itself (velocity, position and
+                # acceleration limits hold for what is commanded, not only for the correction)
+                res = self.solver.solve(cyc.J, cyc.xi, limits=self.limits, q=q, qd_prev=self._qd,
+                                        dt=dt, qd_ff=qd_ff)
+            else:
+                if qd_ff is None:
+                    q_s, qd_prev_s = q, self._qd
+                else:  # the solver resolves the correction on top of q̇_ff: shift its inputs
+                    q_s, qd_prev_s = q + qd_ff * dt, self._qd - qd_ff
+                res = self.solver.solve(cyc.J, cyc.xi, limits=self.limits, q=q_s, qd_prev=qd_prev_s,
+                                        dt=dt)
         except SingularityError as err:
             return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
                               error=cyc.e, ep=cyc.ep, eo=cyc.eo)
