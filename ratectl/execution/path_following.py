@@ -100,6 +100,7 @@ def _validate(chain, path, q0, dt, controller):
     dt = float(dt)
     if not (dt > 0.0 and math.isfinite(dt)):
         raise InputError(f"dt must be a positive period [s], got {dt!r}", argument="dt", value=dt)
+    path.steps(dt)  # the nominal schedule is bounded up front (a clear error for dt = 1e-9)
     q = chain.check_q(q0).astype(float).copy()
     if q.shape != (chain.dof,):
         raise InputError(f"q0 must be one configuration ({chain.dof},), got {q.shape}", argument="q0",

@@ -401,3 +401,13 @@ def test_follow_crosses_the_exact_wrist_singularity_time_optimally(ur5e):
     # checks against toppra), plus the settling steps
     plan = run.info["plan"]
     assert run.duration <= plan.optimal_duration / 0.96 + 0.01
+
+
+def test_a_tiny_period_is_refused_at_once_on_the_time_law(ur5e, scenario):
+    import time
+
+    line, q0 = scenario
+    t0 = time.perf_counter()
+    with pytest.raises(rc.InputError, match="steps"):
+        rc.follow(ur5e, line, q0, dt=1e-9, governor=False)
+    assert time.perf_counter() - t0 < 2.0
