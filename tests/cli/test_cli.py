@@ -1,35 +1,18 @@
 """The ``ratectl`` command, called in-process through ``ratectl.cli.main.main``."""
 
-import contextlib
-import io
 import math
 import re
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helpers import numbers, run  # noqa: E402 - the helper module beside these tests
 
 import ratectl as rc
 from ratectl.cli import demo
-from ratectl.cli import main as cli
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 COMMANDS = ("demo", "info", "jacobian", "singularity", "scan")
-
-
-def run(argv):
-    """(exit code, stdout, stderr) of ``ratectl argv``; argparse exits become codes."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = cli.main(argv)
-        except SystemExit as exc:
-            code = exc.code
-    return code, out.getvalue(), err.getvalue()
-
-
-def numbers(line):
-    return [float(x) for x in re.findall(r"[-+]?\d+\.\d*(?:e[-+]?\d+)?", line)]
 
 
 # ---------------------------------------------------------------------------- help

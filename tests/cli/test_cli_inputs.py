@@ -2,31 +2,14 @@
 each gives a one-line message naming what was wrong, a non-zero exit and no traceback,
 and is caught before any work is done."""
 
-import contextlib
-import io
 import math
-import re
 import time
 
 import numpy as np
 import pytest
+from cli_helpers import numbers, run  # noqa: E402 - the helper module beside these tests
 
 from ratectl.cli import main as cli
-
-
-def run(argv):
-    """(exit code, stdout, stderr) of ``ratectl argv``; argparse exits become codes."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = cli.main(argv)
-        except SystemExit as exc:
-            code = exc.code
-    return code, out.getvalue(), err.getvalue()
-
-
-def numbers(line):
-    return [float(x) for x in re.findall(r"[-+]?\d+\.\d*(?:e[-+]?\d+)?", line)]
 
 
 def assert_one_line_error(code, out, err, *words):
