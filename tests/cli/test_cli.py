@@ -208,6 +208,7 @@ def demo_run(tmp_path_factory):
     return code, out, err, png, seen[0]
 
 
+@pytest.mark.xdist_group("demo")
 def test_demo_prints_the_table_and_writes_the_plot(demo_run):
     code, out, err, png, _ = demo_run
     assert code == 0, err
@@ -218,6 +219,7 @@ def test_demo_prints_the_table_and_writes_the_plot(demo_run):
     assert "scenario:" in err                # progress on stderr
 
 
+@pytest.mark.xdist_group("demo")
 def test_demo_governor_stays_on_the_path_where_the_others_do_not(demo_run):
     *_, comp = demo_run
     gov = comp["governor"]
@@ -235,6 +237,7 @@ def test_demo_governor_stays_on_the_path_where_the_others_do_not(demo_run):
     assert comp["QP"].max_velocity_ratio <= 1 + 1e-6
 
 
+@pytest.mark.xdist_group("demo")
 def test_demo_table_rows_match_the_results(demo_run):
     _, out, _, _, comp = demo_run
     rows = {line.split("  ")[0].strip(): line for line in out.splitlines()
@@ -247,6 +250,7 @@ def test_demo_table_rows_match_the_results(demo_run):
         assert v[0] == pytest.approx(comp[m].max_velocity_ratio, abs=0.006)
 
 
+@pytest.mark.xdist_group("demo")
 def test_demo_scenario_passes_close_to_the_wrist_singularity(demo_run):
     *_, comp = demo_run
     sc = comp.scenario
