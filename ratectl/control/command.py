@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..arrays import read_only
 from ..errors import RatectlError
 from ..singularity import analyze
 
@@ -86,7 +87,7 @@ class Command:
 
     def __post_init__(self) -> None:
         for name in _ARRAYS:
-            object.__setattr__(self, name, _readonly(getattr(self, name)))
+            object.__setattr__(self, name, read_only(getattr(self, name)))
 
     @cached_property
     def kind(self) -> str | None:
@@ -112,15 +113,6 @@ _ARRAYS = ("qd", "q_next", "qdd", "error", "twist", "task_error")
 _OWNED = _ARRAYS[:-1]
 
 
-def _readonly(a) -> np.ndarray:
-    """A read-only float copy of ``a`` (an already read-only float array is kept)."""
-    if type(a) is np.ndarray and a.dtype == np.float64 and not a.flags.writeable:
-        return a
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
-
-
 def make_command(*, chain: Chain | None = None, q: ArrayLike | None = None, **fields: Any) -> Command:
     """A `Command` from the controller's freshly computed arrays, which it owns
     (they are made read-only in place, not copied — the controller keeps no reference to
@@ -130,7 +122,7 @@ def make_command(*, chain: Chain | None = None, q: ArrayLike | None = None, **fi
     cmd = object.__new__(Command)
     for name in _OWNED:
         fields[name].flags.writeable = False
-    fields["task_error"] = _readonly(fields["task_error"])  # the solver's: copied unless read-only
+    fields["task_error"] = read_only(fields["task_error"])  # the solver's: copied unless read-only
     cmd.__dict__.update(fields)
     cmd.__dict__["_chain"] = chain
     cmd.__dict__["_q"] = q

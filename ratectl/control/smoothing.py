@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..arrays import read_only
 from ..errors import InputError, SolverError
 
 __all__ = ["VelocityFilter", "ProgressProfile", "JointTrajectory", "move", "stop"]
@@ -237,9 +238,7 @@ class JointTrajectory:
 
     def __post_init__(self) -> None:
         for name in ("start", "goal"):
-            a = np.array(getattr(self, name), dtype=float)
-            a.flags.writeable = False
-            object.__setattr__(self, name, a)
+            object.__setattr__(self, name, read_only(getattr(self, name)))
 
     def at(self, t: float):
         """``(q, q̇, q̈)`` at time ``t`` [s] (clamped to [0, duration])."""

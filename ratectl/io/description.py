@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..arrays import read_only
 from ..errors import ImportModelError
 from ..spatial import transform
 
@@ -47,9 +48,7 @@ class JointDescription:
 
     def __post_init__(self) -> None:
         for name in ("pre", "post"):
-            a = np.array(getattr(self, name), dtype=float)
-            a.flags.writeable = False
-            object.__setattr__(self, name, a)
+            object.__setattr__(self, name, read_only(getattr(self, name)))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -65,9 +64,7 @@ class ModelDescription:
     label: str
 
     def __post_init__(self) -> None:
-        tool = np.array(self.tool, dtype=float)
-        tool.flags.writeable = False
-        object.__setattr__(self, "tool", tool)
+        object.__setattr__(self, "tool", read_only(self.tool))
         object.__setattr__(self, "joints", tuple(self.joints))
 
 

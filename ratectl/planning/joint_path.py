@@ -50,6 +50,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..arrays import read_only
 from ..errors import InputError, RatectlError
 from ..singularity import analyze
 from ..spatial import pose_error
@@ -64,12 +65,6 @@ __all__ = ['Crossing', 'JointPath', 'joint_path']
 _RCOND = 1e-9          # singular values below this × σ_max are treated as zero
 _RESIDUAL_TOL = 1e-3   # ρ above this at a stop: the tangent leaves the range of J
 _QPRIME_MAX = 1e5      # [rad/m] |q′| beyond this in the interior: unbounded joint speed
-
-
-def _readonly(a) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -126,7 +121,7 @@ class JointPath:
 
     def __post_init__(self) -> None:
         for name in ("s", "q", "dq", "ddq", "dddq", "sigma_min", "residual"):
-            object.__setattr__(self, name, _readonly(getattr(self, name)))
+            object.__setattr__(self, name, read_only(getattr(self, name)))
 
     def interpolate(self, s: np.ndarray | float) -> np.ndarray:
         """q at path parameters ``s`` (scalar or (M,)) by cubic Hermite interpolation of q, q′."""

@@ -11,6 +11,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..arrays import read_only
 from ..errors import InputError
 
 __all__ = ['KINDS', 'singular_values', 'manipulability', 'condition_number', 'rank']
@@ -171,6 +172,4 @@ def _fast_singular_values(A: np.ndarray, refine: float = 1e-3) -> np.ndarray:
 
 # ====================================================================== the report
 def _ro(a):
-    a = np.asarray(a)
-    a.setflags(write=False)
-    return a
+    return read_only(a, dtype=None)

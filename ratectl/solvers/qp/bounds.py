@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ...arrays import read_only
 from ...errors import InputError
 from ...model.limits import Limits, braking_speed_discrete
 from ..base import (
@@ -55,9 +56,7 @@ class VelocityBounds:
 
     def __post_init__(self) -> None:
         for name in ("lower", "upper", "source_lower", "source_upper"):
-            a = np.array(getattr(self, name))
-            a.flags.writeable = False
-            object.__setattr__(self, name, a)
+            object.__setattr__(self, name, read_only(getattr(self, name), dtype=None))
 
 
 class _BoundCache:
