@@ -384,11 +384,13 @@ class ResolvedRateController:
         """q̇ = q̇_ff + solver(J, ξ); a solver failure or a non-finite answer halts (returns
         the halt's Command), otherwise fills ``cyc.qd``, ``cyc.res`` and the status lists."""
         try:
-            if qd_ff is not None and isinstance(self.solver, solvers.QP):
-                # the QP bounds the total q̇_ff + correction itself (velocity, position and
-                # acceleration limits hold for what is commanded, not only for the correction)
-                res = self.solver.solve(cyc.J, cyc.xi, limits=self.limits, q=q, qd_prev=self._qd,
-                                        dt=dt, qd_ff=qd_ff)
+            if qd_ff is not None and getattr(self.solver, "enforces_limits", False):
+                # a limit-enforcing solver (the QP, or a wrapper of it) takes q̇_ff and bounds
+                # the total q̇_ff + correction itself: velocity, position and acceleration
+                # limits hold for what is commanded, not only for the correction
+                enforcing: Any = self.solver  # the enforces_limits contract includes qd_ff=
+                res = enforcing.solve(cyc.J, cyc.xi, limits=self.limits, q=q, qd_prev=self._qd,
+                                      dt=dt, qd_ff=qd_ff)
             else:
                 if qd_ff is None:
                     q_s, qd_prev_s = q, self._qd

@@ -82,7 +82,9 @@ class QP(Solver):
 
     method = "qp"
     #: the solution already respects the velocity, position and acceleration bounds (and
-    #: any extra rows): the controller reports them instead of limiting q̇ again
+    #: any extra rows): the controller reports them instead of limiting q̇ again, and passes
+    #: a joint feed-forward as ``qd_ff=`` so that the bounds hold for the total command (a
+    #: solver that sets this attribute accepts that keyword)
     enforces_limits = True
 
     def __init__(self, *, damping: float = 0.05, backend: str = "osqp", margin: float = 0.0,
