@@ -35,6 +35,7 @@ __all__ = [
     "inverse_transform",
     "so3_exp",
     "so3_log",
+    "so3_left_jacobian",
     "se3_exp",
     "se3_log",
     "pose_error",
@@ -213,20 +214,29 @@ def _left_jacobian_terms(th2):
     return B, C
 
 
+def so3_left_jacobian(w: ArrayLike) -> np.ndarray:
+    """Left Jacobian of SO(3) at the rotation vector ``w`` (θ = ‖w‖), shape ``(..., 3, 3)``.
+
+    ``J_l(w) = I + B[w]× + C[w]×²``, ``B = (1 − cos θ)/θ²``, ``C = (θ − sin θ)/θ³`` (series
+    near θ = 0). It maps the rate of a rotation vector to the angular velocity in the fixed
+    frame: ``d/dt exp(w) = [J_l(w) ẇ]× exp(w)``; it is also the V of `se3_exp`.
+    """
+    w = _as_array(w, "w", (3,))
+    B, C = _left_jacobian_terms(np.einsum("...i,...i->...", w, w))
+    K = skew(w)
+    return np.eye(3) + B[..., None, None] * K + C[..., None, None] * (K @ K)
+
+
 def se3_exp(xi: ArrayLike) -> np.ndarray:
     """Transform ``exp([ξ])`` of a twist ``ξ = [v; ω]`` (unit time), shape ``(..., 6)``.
 
-    ``T = [exp(ω), V(ω) v; 0, 1]`` with ``V = I + B[ω]× + C[ω]×²``,
-    ``B = (1 − cos θ)/θ²``, ``C = (θ − sin θ)/θ³``.
+    ``T = [exp(ω), V(ω) v; 0, 1]`` with ``V = J_l(ω)`` the left Jacobian
+    (`so3_left_jacobian`).
     """
     xi = _as_array(xi, "xi", (6,))
     v, w = xi[..., :3], xi[..., 3:]
-    R = so3_exp(w)
-    th2 = np.einsum("...i,...i->...", w, w)
-    B, C = _left_jacobian_terms(th2)
-    K = skew(w)
-    V = np.eye(3) + B[..., None, None] * K + C[..., None, None] * (K @ K)
-    return transform(R, np.einsum("...ij,...j->...i", V, v))
+    V = so3_left_jacobian(w)
+    return transform(so3_exp(w), np.einsum("...ij,...j->...i", V, v))
 
 
 def se3_log(T: ArrayLike) -> np.ndarray:

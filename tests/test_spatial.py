@@ -13,6 +13,25 @@ vec3 = st.lists(st.floats(-1, 1, allow_nan=False), min_size=3, max_size=3).filte
     lambda v: np.linalg.norm(v) > 1e-3)
 
 
+@pytest.mark.parametrize("angle", [0.0, 1e-7, 1e-3, 0.7, 2.0, math.pi])
+def test_so3_left_jacobian_maps_the_rotation_vector_rate_to_angular_velocity(angle):
+    """d/dt exp(w) = [J_l(w) ẇ]× exp(w) (by central differences), J_l shrinks no vector, and it
+    is the V of se3_exp."""
+    rng = np.random.default_rng(7)
+    axis = rng.standard_normal(3)
+    w = angle * axis / np.linalg.norm(axis)
+    wd = rng.standard_normal(3)
+    h = 1e-6
+    Rp, Rm = sp.so3_exp(w + h * wd), sp.so3_exp(w - h * wd)
+    omega = sp.vee((Rp - Rm) / (2 * h) @ sp.so3_exp(w).T)
+    Jl = sp.so3_left_jacobian(w)
+    assert np.allclose(Jl @ wd, omega, atol=1e-8)
+    assert np.all(np.linalg.svd(Jl, compute_uv=False) <= 1.0 + 1e-12)
+    v = rng.standard_normal(3)
+    assert np.allclose(sp.se3_exp(np.concatenate([v, w]))[:3, 3], Jl @ v, atol=1e-14)
+    assert sp.so3_left_jacobian(np.stack([w, 2 * w])).shape == (2, 3, 3)
+
+
 @settings(max_examples=200, deadline=None)
 @given(vec3, st.floats(0.0, math.pi, allow_nan=False))
 def test_so3_exp_log_round_trip(axis, angle):

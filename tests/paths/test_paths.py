@@ -114,24 +114,93 @@ def test_arc_centre_axis_and_three_points():
         rc.paths.Arc.through(T0, [0.4, 0.0, 0.3], T2, speed=0.1, acceleration=0.5)
 
 
-def test_waypoints_pass_through_and_are_smooth():
+def _corner_path(blend=0.02):
     Ps = [[0.4, 0.0, 0.3], [0.5, 0.0, 0.3], [0.5, 0.1, 0.35], [0.4, 0.1, 0.35]]
     Rs = [rotx(math.pi), rotx(math.pi) @ rotz(0.3), rotx(math.pi) @ rotz(0.6), rotx(math.pi)]
     poses = [_pose(R, p) for R, p in zip(Rs, Ps, strict=True)]
-    wp = rc.paths.Waypoints(poses, blend=0.02, speed=0.1, acceleration=0.5)
-    assert np.allclose(wp.start, poses[0]) and np.allclose(wp.end, poses[-1])
-    for i, T in enumerate(poses):  # passes through every waypoint (at its knot)
-        assert np.allclose(wp.pose_at(wp.knots[i]), T, atol=1e-12)
-    # C1: the tangent is continuous everywhere, also at the blend ends
-    s = np.linspace(1e-4, wp.length - 1e-4, 3001)
-    tw = np.array([wp.twist_at(x) for x in s])
-    assert np.max(np.abs(np.diff(tw, axis=0))) < 0.2  # a corner would jump by ~1–8
+    return poses, rc.paths.Waypoints(poses, blend=blend, speed=0.1, acceleration=0.5)
+
+
+def _fd_rate(path, s, h):
+    """d/ds of the exact tangent `twist_at` (6,) by central differences."""
+    return (path.twist_at(s + h) - path.twist_at(s - h)) / (2 * h)
+
+
+def test_waypoints_blend_cuts_each_corner_by_the_documented_distance():
+    poses, wp = _corner_path()
+    assert np.allclose(wp.start, poses[0], atol=1e-15) and np.allclose(wp.end, poses[-1], atol=1e-15)
+    for i in (1, 2):
+        S, d = wp.knots[i], wp.blends[i]
+        seg_in, seg_out = wp.segments[i - 1], wp.segments[i]
+        dv = seg_out.dp / seg_out.length - seg_in.dp / seg_in.length
+        dist = np.linalg.norm(wp.position_at(S) - poses[i][:3, 3])
+        assert dist == pytest.approx(5 / 32 * d * np.linalg.norm(dv), rel=1e-12)
+        assert wp.corner_distances[i] == pytest.approx(dist, rel=1e-12)
+        # the rotation vector from R_i at the knot: (5/32) d (w_out/L_out − w_in/L_in)
+        dw = seg_out.rot.w / seg_out.length - seg_in.rot.w / seg_in.length
+        assert np.allclose(so3_log(poses[i][:3, :3].T @ wp.pose_at(S)[:3, :3]), 5 / 32 * d * dw, atol=1e-14)
+        # outside the blend the path is the straight segment itself
+        for x in (S - d - 1e-3, S + d + 1e-3):
+            seg = seg_in if x < S else seg_out
+            assert np.allclose(wp.pose_at(x), seg.pose_at(x - wp.knots[i - 1 if x < S else i]), atol=1e-14)
+    sharp_poses, sharp = _corner_path(blend=0.0)
+    assert sharp.length == pytest.approx(wp.length)  # s is the polyline's length either way
+    for i, T in enumerate(sharp_poses):  # without blends: through every waypoint
+        assert np.allclose(sharp.pose_at(sharp.knots[i]), T, atol=1e-12)
+    assert not np.any(sharp.corner_distances)
+
+
+def test_waypoints_tangent_is_exact():
+    _, wp = _corner_path()
+    for s in np.linspace(1e-4, wp.length - 1e-4, 397):
+        assert np.allclose(wp.twist_at(s), _fd_twist(wp, s), atol=2e-8), s
     for knot, d in zip(wp.knots[1:-1], wp.blends[1:-1], strict=True):
-        for x in (knot - d, knot + d, knot - 0.3 * d):
-            assert np.allclose(wp.twist_at(x), _fd_twist(wp, x, h=1e-7), atol=1e-5)
-    # sharp corners without blends
-    sharp = rc.paths.Waypoints(poses, blend=0.0, speed=0.1, acceleration=0.5)
-    assert sharp.length == pytest.approx(wp.length)
+        for x in (knot - d, knot + d, knot - 0.3 * d, knot + 0.7 * d):
+            assert np.allclose(wp.twist_at(x), _fd_twist(wp, x, h=1e-7), atol=1e-6)
+
+
+def test_waypoints_curvature_and_its_rate_are_continuous():
+    """d²P/ds² and d³P/ds³ vanish at both ends of every blend (as on the segments) and are
+    continuous inside it: no jump of curvature (which would need infinite joint jerk) and no
+    jump of its rate. Inside the blend d²p/ds² = β′(x)/(2d)·Δc_p, the documented form."""
+    _, wp = _corner_path()
+    for k in (1, 2):
+        S, d = wp.knots[k], wp.blends[k]
+        c_in, c_out = (np.concatenate([g.dp, g.rot.w]) / g.length for g in wp.segments[k - 1:k + 1])
+        h = 1e-6
+        xs = np.linspace(S - d + 2 * h, S + d - 2 * h, 801)
+        p2 = np.array([_fd_rate(wp, x, h)[:3] for x in xs])
+        x = (xs - S + d) / (2 * d)
+        expected = (30 * x**2 * (1 - x) ** 2 / (2 * d))[:, None] * (c_out - c_in)[:3]
+        assert np.max(np.abs(p2 - expected)) < 1e-5 * np.max(np.abs(expected))
+        # curvature κ = |p′ × p″| / |p′|³: zero at the blend ends, continuous inside
+        p1 = np.array([wp.twist_at(x)[:3] for x in xs])
+        kappa = np.linalg.norm(np.cross(p1, p2), axis=1) / np.linalg.norm(p1, axis=1) ** 3
+        assert kappa[0] < 1e-4 * kappa.max() and kappa[-1] < 1e-4 * kappa.max()
+        assert np.max(np.abs(np.diff(kappa))) < 0.02 * kappa.max()
+        # the rate of the whole twist (rotation too) → 0 at the blend ends, to O(ε²)
+        for e, side in ((S - d, 1.0), (S + d, -1.0)):
+            eps = 1e-3 * d
+            inside = _fd_rate(wp, e + side * eps, 1e-7)
+            assert np.max(np.abs(inside)) < 1e-4 * np.max(np.abs(c_out - c_in)) / d
+            # third derivative O(ε) at the ends as well: no jump of the curvature's rate
+            third = (_fd_rate(wp, e + side * 2 * eps, 1e-7) - inside) / (side * eps)
+            assert np.max(np.abs(third)) < 2e-2 * np.max(np.abs(c_out - c_in)) / d**2
+
+
+def test_waypoints_never_faster_than_the_path_speed():
+    """‖[dp/ds; ρ ω/ṡ]‖ = 1 on the segments and < 1 inside the blends: the tool's speed in the
+    metric of rotation_length never exceeds ṡ."""
+    _, wp = _corner_path()
+    s = np.linspace(0.0, wp.length, 2001)
+    rate = np.array([np.linalg.norm(np.concatenate([t[:3], wp.rotation_length * t[3:]]))
+                     for t in (wp.twist_at(x) for x in s)])
+    assert np.all(rate <= 1.0 + 1e-12)
+    in_blend = np.zeros(len(s), dtype=bool)
+    for knot, d in zip(wp.knots[1:-1], wp.blends[1:-1], strict=True):
+        in_blend |= np.abs(s - knot) < d
+    assert np.allclose(rate[~in_blend], 1.0, atol=1e-12)
+    assert rate[in_blend].min() < 0.9  # a real corner is being cut
 
 
 def test_closest_and_distance():
