@@ -29,6 +29,7 @@ distance from q*.
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 
@@ -38,47 +39,14 @@ from scipy.optimize import brentq
 import ratectl as rc
 from ratectl.singularity import analyze
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "planning"))
+
+from singular_paths import crossing_line, followable  # noqa: E402
+
 DT = 2e-3
 
 
 # ---------------------------------------------------------------------- path construction
-def crossing_line(arm, q_star, qd_star, *, half=0.12, speed=0.25, acceleration=1.0, offset=0.0):
-    """Line (position and rotation) through fk(q*) with tangent twist J(q*)·q̇* (normalised);
-    ``offset`` [m] shifts it sideways, along the translation J loses at q* (a near crossing)."""
-    Tc, J = arm.fk_jacobian(np.asarray(q_star, float))
-    qd_star = np.asarray(qd_star, float)
-    xi = J @ qd_star
-    scale = 1.0 / math.hypot(np.linalg.norm(xi[:3]), 0.1 * np.linalg.norm(xi[3:]))
-    v, w = xi[:3] * scale, xi[3:] * scale
-    Ta, Tb = Tc.copy(), Tc.copy()
-    Ta[:3, 3] -= half * v
-    Tb[:3, 3] += half * v
-    Ta[:3, :3] = rc.spatial.so3_exp(-half * w) @ Tc[:3, :3]
-    Tb[:3, :3] = rc.spatial.so3_exp(half * w) @ Tc[:3, :3]
-    u = np.linalg.svd(J)[0][:3, -1]
-    if offset:
-        u -= (u @ v) * v / (v @ v)
-        Ta[:3, 3] += offset * u / np.linalg.norm(u)
-        Tb[:3, 3] += offset * u / np.linalg.norm(u)
-    guess = np.asarray(q_star) - half * scale * qd_star
-    for side in (1.0, -1.0):  # the side of the singularity the line is reachable on
-        line = rc.paths.Line(Ta, Tb, speed=speed, acceleration=acceleration)
-        res = rc.ik(arm, Ta, guess, max_step=0.05)
-        if res.converged and _followable(arm, line, res.q):
-            return line, np.array(res.q)
-        if not offset:
-            break
-        Ta[:3, 3] -= 2 * side * offset * u / np.linalg.norm(u)
-        Tb[:3, 3] -= 2 * side * offset * u / np.linalg.norm(u)
-    raise RuntimeError(f"the crossing line of {arm.name} is not followable: {res}")
-
-
-def _followable(arm, path, q0):
-    """The joint path from q0 reaches the end inside the joint range."""
-    jp = rc.planning.joint_path(arm, path, np.array(q0))
-    return jp.complete and bool(np.all((jp.q >= arm.lower) & (jp.q <= arm.upper)))
-
-
 def det_root(arm, q, joint, lo, hi, kind):
     """q with joint ``joint`` moved to a root of det J in [lo, hi] where analyze says ``kind``."""
     q = np.array(q, float)
@@ -155,7 +123,7 @@ def elbow_arc(arm_name, joint, q, lo, hi, *, radius=0.1, angle=0.5, speed=0.2, a
             arc = rc.paths.Arc(T0, centre=c, axis=k, angle=angle, speed=speed, acceleration=acceleration)
             for bend in (0.3, -0.3):
                 res = rc.ik(arm, T0, qs + bend * np.eye(arm.dof)[joint], max_step=0.05)
-                if res.converged and _followable(arm, arc, res.q):
+                if res.converged and followable(arm, arc, res.q):
                     return arm, arc, np.array(res.q)
         raise RuntimeError(f"no followable elbow arc for {arm.name}")
     return make
