@@ -53,6 +53,7 @@ from numpy.typing import ArrayLike
 from ..arrays import read_only
 from ..errors import InputError, RatectlError
 from ..singularity import analyze
+from ..solvers import JointCentring
 from ..spatial import pose_error
 from .ik import ik
 
@@ -215,12 +216,8 @@ class _Integrator:
         self.max_joint_step = max_joint_step
         self.max_step = max_step or max(self.L / 200.0, 1e-6)
         self.max_points = max_points
-        lo, hi = chain.lower, chain.upper
-        finite = np.isfinite(lo) & np.isfinite(hi)
-        lo0, hi0 = np.where(finite, lo, 0.0), np.where(finite, hi, 0.0)
-        self.mid = 0.5 * (lo0 + hi0)
-        half = np.where(finite, 0.5 * (hi0 - lo0), np.inf)
-        self.wgt2 = np.where(finite, 1.0 / half, 0.0) ** 2 * nullspace_gain
+        self.centring = JointCentring(chain)
+        self.nullspace_gain = float(nullspace_gain)
         self.S: list[float] = []
         self.Q: list[np.ndarray] = []
         self.D: list[np.ndarray] = []
@@ -228,9 +225,10 @@ class _Integrator:
         self.RHO: list[float] = []
 
     def base(self, q: np.ndarray | float, dq_prev: Any):
-        """The null-space preference: joint centring (redundant arm) or the previous tangent."""
+        """The null-space preference: joint centring (redundant arm; the gradient of the
+        solvers' `JointCentring` objective times ``nullspace_gain``) or the previous tangent."""
         if self.redundant:
-            return -self.wgt2 * (q - self.mid)
+            return self.nullspace_gain * self.centring(q)
         return dq_prev if dq_prev is not None else np.zeros(self.n)
 
     def tangent(self, q: np.ndarray | float, s: np.ndarray | float, dq_prev: Any):
