@@ -33,8 +33,9 @@ class JointCentring:
         lower = np.asarray(limits.lower, dtype=float)
         upper = np.asarray(limits.upper, dtype=float)
         finite = np.isfinite(lower) & np.isfinite(upper)
+        lower, upper = np.where(finite, lower, -1.0), np.where(finite, upper, 1.0)  # no inf − inf
         self.centre = np.where(finite, 0.5 * (lower + upper), 0.0)
-        half = np.where(finite, 0.5 * (upper - lower), 1.0)
+        half = 0.5 * (upper - lower)
         self._w = np.where(finite, 1.0 / half**2, 0.0)
 
     def cost(self, q: ArrayLike) -> float:

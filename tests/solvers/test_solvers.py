@@ -322,6 +322,16 @@ def test_bad_weights_raise():
 
 
 # --------------------------------------------------------------------------- null space
+def test_joint_centring_leaves_unlimited_joints_alone():
+    """Joints without finite limits get no centring (and no inf − inf on the way)."""
+    limits = rc.model.limits.Limits(lower=[-np.inf, -2.0, -np.inf, 0.0], upper=[np.inf, 2.0, 1.0, 1.0],
+                                    vmax=np.ones(4), amax=np.ones(4))
+    with np.errstate(all="raise"):
+        centring = S.JointCentring(limits)
+        z = centring([5.0, 1.0, -3.0, 1.0])
+    assert np.array_equal(z, [0.0, -0.25, 0.0, -2.0])  # −(q − c)/r² on the limited joints only
+
+
 def test_null_space_centring_on_iiwa_tracks_the_task_and_centres(rng):
     iiwa = rc.robots.iiwa7()
     centring = S.JointCentring(iiwa)
