@@ -24,7 +24,7 @@ How (all done once, before the motion — `Governor.plan`):
 3. **Progress.** Without a smoother the progress s(t) *is* the time-optimal profile, sampled
    every control period. With a jerk-limited smoother (``check_jerk``) the progress is the
    profile's moving average over a window T that bounds the ``q′s⃛`` term of the joint jerk
-   (`_smooth_progress`, `Governor.averaging_window`); the ``3q″ṡs̈`` and ``q‴ṡ³`` terms are
+   (`_smooth_progress`, `Governor._averaging_window`); the ``3q″ṡs̈`` and ``q‴ṡ³`` terms are
    bounded by step 4, which lowers the speed where they bind. A pointwise speed bound
    ``|q‴_i|ṡ³ ≤ jmax_i`` is not used: it ignores that the terms cancel — on the
    velocity-limit curve next to a singularity q̇_i = q′_iṡ is constant, so the binding
@@ -230,7 +230,7 @@ class Governor:
     def _progress(self, jp: JointPath, path, lim, mv, ma, dt, window: float | None):
         """The speed profile at the current margins, the progress (s, ṡ, s̈) sampled every dt and
         the averaging window of a smoothed progress [s] (0 without smoothing; ``window``
-        None: chosen from this profile by `averaging_window`)."""
+        None: chosen from this profile by `_averaging_window`)."""
         vmax, amax, _ = lim
         # a margin lowered locally lowers the path's own speed and acceleration there too
         prof = reachability_profile(jp, mv[:, None] * vmax, ma[:, None] * amax,
@@ -239,10 +239,10 @@ class Governor:
         if not self.check_jerk:
             return prof, prof.sample(dt), 0.0
         if window is None:
-            window = self.averaging_window(jp, path, lim, prof, dt=dt)
+            window = self._averaging_window(jp, path, lim, prof, dt=dt)
         return prof, _smooth_progress(prof, dt=dt, window=window), window
 
-    def averaging_window(self, jp: JointPath, path, lim, prof: SpeedProfile, *, dt: float) -> float:
+    def _averaging_window(self, jp: JointPath, path, lim, prof: SpeedProfile, *, dt: float) -> float:
         """Window T [s] of the moving average that makes the progress jerk-limited.
 
         Averaging s over T turns a jump Δs̈ of the profile's (piecewise constant) s̈ into
