@@ -62,7 +62,7 @@ _BRAKE_KAPPA = 0.8  # the share of that the approach brakes with (headroom for a
 _URGENT_ETA = 0.6  # the share of amax a late stop may use
 _OFF_ETA = 0.3  # the share that brings the motion off the approach line to rest (sum < 1)
 _GOAL_ITERATIONS = 10  # Gauss-Newton steps toward the joint goal of a new target
-_GOAL_STEP = 0.5  # the largest change of one joint in one of those steps [rad or m]
+_GOAL_STEP = 2.0  # the largest change of one joint in one of those steps [rad or m]
 _BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
 _NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
 
