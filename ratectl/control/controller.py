@@ -62,6 +62,7 @@ _BRAKE_KAPPA = 0.8  # the share of that the approach brakes with (headroom for a
 _URGENT_ETA = 0.6  # the share of amax a late stop may use
 _OFF_ETA = 0.3  # the share that brings the motion off the approach line to rest (sum < 1)
 _GOAL_ITERATIONS = 10  # Gauss-Newton steps toward the joint goal of a new target
+_GOAL_JUMP = 1e-3  # a new target farther than this from the last goal [m and rad] is iterated
 _GOAL_STEP = 2.0  # the largest change of one joint in one of those steps [rad or m]
 _BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
 _NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
@@ -559,8 +560,9 @@ class ResolvedRateController:
         steps g ← g + Jᵀ(J Jᵀ + λ²I)⁻¹ e(g) at the goal itself (λ = 1e-3; least squares for
         an arm that cannot zero every component), kept inside the position range. A new
         target starts from the last goal (or q + w, w the first-order joint travel J⁺e)
-        and takes up to `_GOAL_ITERATIONS` steps, so the joint motion heads for the final
-        goal from the start; while the target stays, one step per cycle. No joint moves by
+        and, if it is farther than `_GOAL_JUMP` from it, takes up to `_GOAL_ITERATIONS`
+        steps, so the joint motion heads for the final goal from the start; a target that
+        stays or moves a little (a moving target) gets one step per cycle. No joint moves by
         more than `_GOAL_STEP` [rad or m] in one step (a trust region)."""
         g = self._goal
         iterations = 1
@@ -575,7 +577,8 @@ class ResolvedRateController:
         for _ in range(iterations):
             T, J = self.chain.fk_jacobian(g)
             pose_error_into(e, target, T)
-            if not float(e @ e) > 1e-24:
+            ee = float(e @ e)
+            if not ee > 1e-18:  # converged (to 1e-9 m and rad)
                 break
             JJt = J @ J.T
             JJt[np.diag_indices(6)] += 1e-6
@@ -584,6 +587,8 @@ class ResolvedRateController:
             if big > _GOAL_STEP:  # a trust region: near a singularity the step may be huge
                 step *= _GOAL_STEP / big
             g = np.minimum(np.maximum(g + step, self._plo), self._phi)
+            if ee < _GOAL_JUMP**2:  # a target that moved a little (a moving one): one step
+                break
         self._goal = g
         return g
 
