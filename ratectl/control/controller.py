@@ -58,6 +58,12 @@ if TYPE_CHECKING:
 __all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver"]
 
 _APPROACH_ETA = 0.5  # fraction of amax (and jmax) the approach to a target plans its braking with
+_BRAKE_KAPPA = 0.8  # the share of that the approach brakes with (headroom for a goal still moving)
+_URGENT_ETA = 0.6  # the share of amax a late stop may use
+_OFF_ETA = 0.3  # the share that brings the motion off the approach line to rest (sum < 1)
+_GOAL_ITERATIONS = 10  # Gauss-Newton steps toward the joint goal of a new target
+_GOAL_JUMP = 1e-3  # a new target farther than this from the last goal [m and rad] is iterated
+_GOAL_STEP = 2.0  # the largest change of one joint in one of those steps [rad or m]
 _BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
 _NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
 
@@ -178,6 +184,11 @@ class ResolvedRateController:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
         self._progress: ProgressProfile | None = None
+        self._off_filter: VelocityFilter | None = None
+        self._zeros = np.zeros(n)
+        self._goal: np.ndarray | None = None
+        self._goal_target: np.ndarray | None = None
+        self._goal_error = np.zeros(6)
         self._all_joints = np.ones(n, dtype=bool)
         self._target_ok = None  # the last target found rigid (checked again only when it changes)
         self.filter: VelocityFilter | None = None
@@ -193,6 +204,9 @@ class ResolvedRateController:
             if self.filter.dof != n:
                 raise InputError(f"the VelocityFilter has {self.filter.dof} joints, the chain {n}",
                                  argument="smoothing", value=smoothing)
+            # the share of the limits the approach to a target plans with (the rest is headroom)
+            self._approach_amax = _APPROACH_ETA * self.filter.amax
+            self._approach_jmax = _APPROACH_ETA * self.filter.jmax
             if self.limits is not None and self._has_p:
                 # a jerk-limited joint needs more room to stop: widen the "near a limit" gate
                 f = self.filter
@@ -223,6 +237,7 @@ class ResolvedRateController:
         self._q_last = None
         self._q_next_last = None
         self._latched = ""
+        self._goal = self._goal_target = None
         self._dt_last = None
         self.time = 0.0
         if self.filter is not None:
@@ -275,7 +290,7 @@ class ResolvedRateController:
         if halt is not None:
             return halt
         if target is not None and qd_ff is None and (twist is None or not twist.any()):
-            halt = self._approach(cyc, q, dt)
+            halt = self._approach(cyc, q, dt, target)
             if halt is not None:
                 return halt
         self._limit(cyc, q, dt)
@@ -416,85 +431,166 @@ class ResolvedRateController:
         return None
 
     # --- stage 3b: the approach to a target
-    def _approach(self, cyc: _Cycle, q, dt) -> Command | None:
+    def _approach(self, cyc: _Cycle, q, dt, target) -> Command | None:
         """Shape the feedback q̇ = solver(J, K e) so that the arm can still stop at the
         target within the joint limits (pure servoing: a target, no feed-forward).
 
-        The joint travel still to go is, to first order, w = J⁺e = q̇/K (the solver is
-        linear in ξ; for a vector gain the largest K, which under-estimates w: the safe
-        side). Joint i may approach at most at the speed from which it can stop within
-        w_i: ``braking_speed_discrete`` at η·amax in periods of dt (the discrete
-        √(2 η amax w)), or, smoothed, `braking_speed` at η·amax,
-        η·jmax — and 0 when the filter's own state (v, a) one period ahead could no longer
-        stop within w_i. q̇ is scaled uniformly by the smallest ratio, so the tool keeps its
+        Without smoothing: the joint travel still to go is, to first order, w = J⁺e = q̇/K
+        (the solver is linear in ξ; for a vector gain the largest K, which under-estimates
+        w: the safe side). Joint i may approach at most at the speed from which it can stop
+        within w_i, ``braking_speed_discrete`` at η·amax in periods of dt (the discrete
+        √(2 η amax w)); q̇ is scaled uniformly by the smallest ratio, so the tool keeps its
         straight approach; η = 1/2 keeps headroom for the change of J along the way. Far
         from the target (K·w below the braking speed) this is the proportional law.
-        A solver that enforces limits itself (the QP) solves again with the scaled twist."""
+        With smoothing: `_approach_smoothed`. A solver that enforces limits itself (the
+        QP) solves again with the scaled twist."""
         qd = cyc.qd
         if self._inv_kmax == 0.0 or self.limits is None:
             return None
         speed = np.abs(qd)
-        w = speed * self._inv_kmax
-        f = self.filter
         moving = speed > 0.0
         if not moving.any():
             return None
-        if f is not None:
-            r, cyc.qdd_ff = self._approach_smoothed(cyc, qd, speed, moving, dt)
+        within = cyc.ep <= self.position_tolerance and cyc.eo <= self.orientation_tolerance
+        if self.filter is not None:
+            plan = self._approach_smoothed(cyc, q, qd, dt, target)
+            if plan is None:
+                return None
+            r, qd_ref, qdd_ref = plan
         elif self._has_a:
+            w = speed * self._inv_kmax
             adt = self._amax_f * (_APPROACH_ETA * dt)
             b = braking_speed_discrete(w, adt, 1.0 / (adt * dt), 1.0 / dt)
             r = float(np.min(b[moving] / speed[moving]))
+            if r >= 1.0:
+                return None
+            qd_ref, qdd_ref = qd * r, None
         else:
             return None
-        if r >= 1.0:
-            cyc.approach_qd = cyc.qd
-            return None
         cyc.approach = r
-        cyc.flags.append("acceleration-limited")
-        cyc.reasons.append(f"approach to the target slowed to {r:.3g}× its proportional speed to stop "
-                           "there within amax")
+        if r < 1.0 - 1e-9 and not within:
+            # inside the tolerance the arm has arrived: its last braking is not a limit
+            cyc.flags.append("acceleration-limited")
+            cyc.reasons.append(f"approach to the target slowed to {r:.3g}× its proportional speed "
+                               "to stop there within amax")
         if getattr(self.solver, "enforces_limits", False):
             cyc.xi = cyc.xi * r
-            return self._solve(cyc, q, dt, None)
+            halt = self._solve(cyc, q, dt, None)
+            cyc.qdd_ff, cyc.approach_qd = qdd_ref, cyc.qd
+            return halt
         cyc.xi = cyc.xi * r
-        cyc.qd = cyc.approach_qd = qd * r
+        cyc.qd = cyc.approach_qd = qd_ref
+        cyc.qdd_ff = qdd_ref
         return None
 
-    def _approach_smoothed(self, cyc: _Cycle, qd, speed, moving, dt):
-        """The approach law for the jerk-limited filter, on the scalar progress x = ‖e‖
-        toward the target. The joints move as q̇ = ẋ·d with d = q̇_solver/(K x) (= J⁺ê, so
-        the tool moves straight along ê), hence the progress may move at ẋ ≤ minᵢ vmaxᵢ/|dᵢ|,
-        accelerate at α = η·minᵢ amaxᵢ/|dᵢ| and jerk at ζ = η·minᵢ jmaxᵢ/|dᵢ|. From the
-        filter's state projected on d (ṡ = v·d/d·d, s̈ = a·d/d·d), a
-        `ProgressProfile` (Ruckig, one degree of freedom)
-        gives the time-optimal motion that comes to rest at x; one period of it, capped by
-        the proportional law ẋ ≤ K x, is the command. Its acceleration s̈·d is passed to the
-        filter as the target acceleration: the reference is feasible, so the filter follows
-        it without lag (no lag to turn into overshoot). Returns (r, q̈_ff): the scale of q̇
-        and that acceleration."""
+    def _approach_smoothed(self, cyc: _Cycle, q, qd, dt, target):
+        """The approach law for the jerk-limited filter: a reference (q̇, q̈) that the filter
+        meets exactly one period later — so it never lags, and lag cannot turn into
+        overshoot — and from which the arm can always still come to rest at the target.
+
+        The approach is planned in joint space, where the geometry is flat: toward the
+        joint goal g at which the tool reaches the target (`_joint_goal`: Gauss-Newton,
+        converged when the target is new, refined every cycle), along the straight line
+        u = (g − q)/x, x = ‖g − q‖. On u the progress may move at ẋ ≤ minᵢ vmaxᵢ/|uᵢ|,
+        accelerate at α = η·minᵢ amaxᵢ/|uᵢ| and jerk at ζ = η·minᵢ jmaxᵢ/|uᵢ|. The
+        filter's state (v, a) splits into its part along u, (ṡ, s̈) = (v·u, a·u), and the
+        rest (v⊥, a⊥) (zero when the motion started at rest toward a fixed target). The
+        reference is the sum of
+
+        * one period of the time-optimal jerk-limited progress from (ṡ, s̈) to rest at x
+          (`ProgressProfile`, Ruckig with one degree of freedom) under ẋ ≤ min(vcap, K x)
+          (the proportional law caps the speed: the gain sets how fast the target is
+          approached), acceleration α and braking κ·α (headroom for the goal still
+          moving), re-planned every cycle from the measured q; if the stop no longer fits
+          at κ·α it brakes with the urgent share;
+        * one period of the jerk-limited decay of (v⊥, a⊥) to rest, the joints
+          synchronised, within a share η⊥ of amax and jmax (a second `VelocityFilter`).
+
+        Each is a jerk-limited motion within its share of the limits, and the shares add
+        up to less than 1, so the sum is reachable from the filter's state in one period
+        strictly inside |q̈| ≤ amax, |q⃛| ≤ jmax (a target on the boundary of what one
+        period can reach makes Ruckig plan a longer motion than one period, which is lag
+        again). The tool follows the image of a straight joint line to the inverse
+        kinematics of the target, and the progress along it is exact (no change of J
+        enters it), so it stops at the target. Returns (r, q̇_ref, q̈_ref) with
+        r = ẋ/(K x) the fraction of the proportional speed, or None (the proportional
+        law unshaped) at the goal or if Ruckig finds no progress motion."""
         f = self.filter
         assert f is not None
-        x = float(np.linalg.norm(cyc.e))
+        unscale = cyc.scale if (cyc.res.velocity_policy == "scaled" and cyc.scale > 0.0) else 1.0
+        goal = self._joint_goal(q, qd * (self._inv_kmax / unscale), target)
+        w = goal - q
+        x = float(np.sqrt(w @ w))
+        if not x > 0.0:
+            return None
         K = 1.0 / self._inv_kmax
-        if x <= 0.0:
-            return 1.0, None
-        d = qd * (self._inv_kmax / x)
-        ad = np.abs(d)[moving]
-        vcap = float(np.min(f.vmax[moving] / ad))
-        alpha = _APPROACH_ETA * float(np.min(f.amax[moving] / ad))
-        zeta = _APPROACH_ETA * float(np.min(f.jmax[moving] / ad))
-        dd = float(d @ d)
-        s_v = min(max(float(self._qd @ d) / dd, -vcap), vcap)
-        s_a = min(max(float(self._qdd @ d) / dd, -alpha), alpha)
+        u = w / x
+        moving = u != 0.0
+        au = np.abs(u)[moving]
+        vcap = float(np.min(f.vmax[moving] / au))
+        alpha = float(np.min(self._approach_amax[moving] / au))
+        zeta = float(np.min(self._approach_jmax[moving] / au))
+        v, a = self._qd, self._qdd
+        s_v = float(v @ u)
+        s_a = float(a @ u)
+        brake = _BRAKE_KAPPA * alpha
+        if s_v > 0.0 and stopping_distance(s_v, s_a, brake, zeta) > x * (1.0 + 1e-6):
+            # late (the plan rides its braking curve, so only a disturbance gets here): brake
+            # with the urgent share; never accelerate with it
+            brake = alpha * (_URGENT_ETA / _APPROACH_ETA)
         if self._progress is None:
             self._progress = ProgressProfile(dt)
-        nxt = self._progress.step(x, s_v, s_a, vmax=max(min(vcap, K * x), 1e-12), amax=alpha, jmax=zeta,
-                                  dt=dt)
+        nxt = self._progress.step(x, min(max(s_v, -vcap), vcap), s_a, vmax=max(min(vcap, K * x), 1e-12),
+                                  amax=alpha, jmax=zeta, dt=dt, brake=brake)
         if nxt is None:
-            return 1.0, None
+            return None
         v1, a1 = nxt
-        return v1 / (K * x), d * a1
+        off = self._off_filter
+        if off is None:
+            off = self._off_filter = VelocityFilter(self._n, dt=dt, vmax=2.0 * f.vmax,
+                                                    amax=_OFF_ETA * f.amax, jmax=_OFF_ETA * f.jmax)
+        if abs(off.dt - dt) > 1e-15:
+            off.dt = dt
+        off.reset(v - s_v * u, a - s_a * u)
+        _, w_off, b_off = off.update(self._zeros, self._zeros)
+        return v1 / (K * x), v1 * u + w_off, a1 * u + b_off
+
+    def _joint_goal(self, q, w, target):
+        """The joint position at which the tool reaches ``target``: damped Gauss-Newton
+        steps g ← g + Jᵀ(J Jᵀ + λ²I)⁻¹ e(g) at the goal itself (λ = 1e-3; least squares for
+        an arm that cannot zero every component), kept inside the position range. A new
+        target starts from the last goal (or q + w, w the first-order joint travel J⁺e)
+        and, if it is farther than `_GOAL_JUMP` from it, takes up to `_GOAL_ITERATIONS`
+        steps, so the joint motion heads for the final goal from the start; a target that
+        stays or moves a little (a moving target) gets one step per cycle. No joint moves by
+        more than `_GOAL_STEP` [rad or m] in one step (a trust region)."""
+        g = self._goal
+        iterations = 1
+        if self._goal_target is None or not np.array_equal(target, self._goal_target):
+            if g is None:
+                g = q + w
+            self._goal_target = target.copy()
+            iterations = _GOAL_ITERATIONS
+        elif g is None:
+            g = q + w
+        e = self._goal_error
+        for _ in range(iterations):
+            T, J = self.chain.fk_jacobian(g)
+            pose_error_into(e, target, T)
+            ee = float(e @ e)
+            if not ee > 1e-18:  # converged (to 1e-9 m and rad)
+                break
+            JJt = J @ J.T
+            JJt[np.diag_indices(6)] += 1e-6
+            step = J.T @ np.linalg.solve(JJt, e)
+            big = float(np.max(np.abs(step)))
+            if big > _GOAL_STEP:  # a trust region: near a singularity the step may be huge
+                step *= _GOAL_STEP / big
+            g = np.minimum(np.maximum(g + step, self._plo), self._phi)
+            if ee < _GOAL_JUMP**2:  # a target that moved a little (a moving one): one step
+                break
+        self._goal = g
+        return g
 
     # --- stage 4: the limits
     def _limit(self, cyc: _Cycle, q, dt) -> None:
@@ -521,8 +617,9 @@ class ResolvedRateController:
         if near and not enforcing:
             self._limit_position(cyc, q, dt)
         if self.filter is not None and near:
+            reference = cyc.qdd_ff if (cyc.qd is cyc.approach_qd and cyc.qdd_ff is not None) else None
             cyc.qd, cyc.braking = self._jerk_limited_position_guard(q, cyc.qd, dt, cyc.flags,
-                                                                    cyc.reasons, cyc.active)
+                                                                    cyc.reasons, cyc.active, reference)
         res = cyc.res
         if res.damping > 0.0 and not (enforcing and cyc.smin >= self.singular_sigma):
             # a QP's λ is a constant regulariser: it is reported only near a singularity
@@ -637,7 +734,7 @@ class ResolvedRateController:
                             limits_active=tuple(dict.fromkeys(active)) if active else (), time=t0,
                             dt=dt, solve=res, chain=self.chain, q=self._q_last)
 
-    def _jerk_limited_position_guard(self, q, qd, dt, flags, reasons, active):
+    def _jerk_limited_position_guard(self, q, qd, dt, flags, reasons, active, qdd_ref=None):
         """Keep a smoothed joint inside its position range: the Ruckig filter lags the
         command, so braking must start while the jerk-limited stop still fits.
 
@@ -648,7 +745,12 @@ class ResolvedRateController:
         limit is 0 now (Ruckig then brakes time-optimally); otherwise it is at most
         `braking_speed` of the room. The same mirrored towards
         the lower limit. Returns (q̇, braking): the joints that must stop, which the filter
-        then moves time-optimally on their own instead of synchronised with the others."""
+        then moves time-optimally on their own instead of synchronised with the others.
+
+        With the approach's reference (q̇, ``qdd_ref``), which the filter meets exactly, the
+        next state is known instead of the worst case: a joint whose jerk-limited stop from
+        that state, after the period's constant-jerk travel v·dt + a·dt²/2 + (a₁ − a)·dt²/6,
+        still fits before its limit keeps the reference."""
         f = self.filter
         A, Jm = f.amax, f.jmax
         v, a = self._qd, self._qdd
@@ -667,6 +769,15 @@ class ResolvedRateController:
         v1 = -v - a * dt + ahead_v
         stop_lo = stopping_distance(v1, a1, A, Jm) >= room_lo - (-v * dt - 0.5 * a * dt * dt + ahead_x)
         lo_v = np.where(stop_lo, 0.0, -braking_speed(room_lo, A, Jm))
+        if qdd_ref is not None:
+            travel = v * dt + 0.5 * a * dt * dt + (qdd_ref - a) * (dt * dt / 6.0)
+            slack = Jm * dt**3  # more than any other one-period motion to the same state travels
+            fits = ((stopping_distance(qd, qdd_ref, A, Jm) < room_up - travel - slack)
+                    & (stopping_distance(-qd, -qdd_ref, A, Jm) < room_lo + travel - slack))
+            hi_v = np.where(fits, np.inf, hi_v)
+            lo_v = np.where(fits, -np.inf, lo_v)
+            stop_up = stop_up & ~fits
+            stop_lo = stop_lo & ~fits
         clipped = np.minimum(np.maximum(qd, lo_v), hi_v)
         changed = clipped != qd
         if changed.any():

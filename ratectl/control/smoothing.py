@@ -125,7 +125,9 @@ class VelocityFilter:
         """One period: returns ``(q_next, qd, qdd)`` of the jerk-limited motion from ``q``.
 
         The joints are time-synchronised (they reach the target velocity together, so the
-        joint-space direction of the change is kept), except those in ``independent``.
+        joint-space direction of the change is kept), except those in ``independent``,
+        which move time-optimally on their own (see `_one_period_on_their_own`: the
+        others still meet their targets within the period).
 
         Args:
             q: current joint positions (n,) (the position the motion starts from).
@@ -137,16 +139,12 @@ class VelocityFilter:
                 braking for its position limit must brake as hard as it can).
         """
         inp = self._inp
-        if independent is not None and any(independent):
-            sync = self._ruckig.Synchronization
-            inp.per_dof_synchronization = [sync.No if m else sync.Time for m in independent]
-            self._per_dof = True
-        elif self._per_dof:
+        if self._per_dof:
             inp.per_dof_synchronization = None
             self._per_dof = False
         inp.current_position = q.tolist() if type(q) is np.ndarray else list(q)
         vt = np.minimum(np.maximum(qd_target, self._neg_vmax), self.vmax)  # (np.clip is slower)
-        inp.target_velocity = vt.tolist()
+        ta = None
         if qdd_target is not None:
             ta = np.minimum(np.maximum(qdd_target, -self.amax), self.amax)
             # a target acceleration that pushes the target velocity outward must leave room to
@@ -154,8 +152,24 @@ class VelocityFilter:
             # (without this a non-zero target acceleration at the velocity limit overran it)
             room = np.sqrt(2.0 * self.jmax * np.maximum(self.vmax - np.abs(vt), 0.0))
             ta = np.where(ta * vt > 0.0, np.sign(ta) * np.minimum(np.abs(ta), room), ta)
-            if independent is not None:
-                ta = np.where(independent, 0.0, ta)  # a braking joint arrives at rest acceleration
+        own = None
+        if independent is not None and any(independent):
+            if all(independent):  # every joint on its own (a halt), to rest acceleration
+                inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
+                self._per_dof = True
+                ta = None if ta is None else np.zeros(self.dof)
+            else:
+                own = np.asarray(independent, dtype=bool)
+                alone = self._one_period_on_their_own(vt, ta, own)
+                # the others, synchronised, with the independent joints given a target they
+                # reach at once (their constant-acceleration extrapolation, no jerk), so that
+                # they do not stretch the synchronised motion
+                v0 = np.array(inp.current_velocity)
+                a0 = np.array(inp.current_acceleration)
+                vt = np.where(own, np.minimum(np.maximum(v0 + a0 * self.dt, self._neg_vmax), self.vmax), vt)
+                ta = np.where(own, a0, 0.0 if ta is None else ta)
+        inp.target_velocity = vt.tolist()
+        if ta is not None:
             inp.target_acceleration = ta.tolist()
             self._ta_set = True
         elif self._ta_set:
@@ -175,9 +189,32 @@ class VelocityFilter:
                               problem={"target_velocity": vt, "velocity": inp.current_velocity,
                                        "acceleration": inp.current_acceleration})
         out = self._out
-        out.pass_to_input(inp)
-        return np.array(out.new_position), np.array(out.new_velocity), np.array(out.new_acceleration)
+        q1, v1, a1 = np.array(out.new_position), np.array(out.new_velocity), np.array(out.new_acceleration)
+        if own is not None and alone is not None:
+            q1, v1, a1 = (np.where(own, x_alone, x) for x_alone, x in zip(alone, (q1, v1, a1), strict=True))
+        inp.current_velocity = v1.tolist()
+        inp.current_acceleration = a1.tolist()
+        return q1, v1, a1
 
+    def _one_period_on_their_own(self, vt: np.ndarray, ta: np.ndarray | None, independent: np.ndarray):
+        """The ``independent`` joints' own time-optimal motion to their target velocities at
+        rest acceleration (no synchronisation): ``(q, q̇, q̈)`` one period later, or None if
+        Ruckig finds none. `update` takes the independent joints from this and the others
+        from a second, synchronised update (Ruckig stretches time-synchronised joints to
+        the duration of the whole motion, unsynchronised joints included, so a single
+        update with a braking joint unsynchronised would stretch every other joint to its
+        stop and lose their targets)."""
+        inp = self._inp
+        inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
+        inp.target_velocity = vt.tolist()
+        at_rest = np.zeros(self.dof) if ta is None else np.where(independent, 0.0, ta)
+        inp.target_acceleration = at_rest.tolist()
+        res = self._calculate()
+        inp.per_dof_synchronization = None
+        if res not in self._ok:
+            return None
+        out = self._out
+        return np.array(out.new_position), np.array(out.new_velocity), np.array(out.new_acceleration)
 
 
 class ProgressProfile:
@@ -199,19 +236,29 @@ class ProgressProfile:
         self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
 
     def step(self, x: float, v: float, a: float, *, vmax: float, amax: float, jmax: float,
-             dt: float):
+             dt: float, brake: float | None = None):
         """From progress 0 at speed ``v`` and acceleration ``a``, the time-optimal motion to
-        rest at ``x`` under |ẋ| ≤ vmax, |ẍ| ≤ amax, |x⃛| ≤ jmax: returns its (speed,
-        acceleration) one period ``dt`` later, or None if Ruckig finds no motion."""
+        rest at ``x`` under |ẋ| ≤ vmax, |ẍ| ≤ amax, |x⃛| ≤ jmax, decelerating toward ``x``
+        by at most ``brake`` (≤ amax; default amax): returns its (speed, acceleration) one
+        period ``dt`` later, or None if Ruckig finds no motion."""
         if self._otg.delta_time != dt:
             self._otg.delta_time = dt
         inp = self._inp
         inp.current_velocity = [v]
-        inp.current_acceleration = [a]
         inp.target_position = [x]
         inp.max_velocity = [vmax]
-        inp.max_acceleration = [amax]
         inp.max_jerk = [jmax]
+        if brake is None or brake >= amax:
+            inp.max_acceleration = [amax]
+            inp.min_acceleration = None
+            lo, hi = -amax, amax
+        elif x >= 0.0:  # the target ahead: braking is a negative acceleration
+            lo, hi = -brake, amax
+            inp.max_acceleration, inp.min_acceleration = [hi], [lo]
+        else:
+            lo, hi = -amax, brake
+            inp.max_acceleration, inp.min_acceleration = [hi], [lo]
+        inp.current_acceleration = [min(max(a, lo), hi)]
         try:
             res = self._otg.update(inp, self._out)
         except self._ruckig.RuckigError:

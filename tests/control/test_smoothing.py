@@ -171,3 +171,48 @@ def test_a_failing_filter_raises_a_ratectl_error_and_the_controller_halts():
     cmd = ctrl.step(q, twist=np.array([0.05, 0, 0, 0, 0, 0]), dt=1e-3)  # must not raise
     assert cmd.status == "halted" and "smoothing failed" in cmd.reason
     assert np.all(np.isfinite(cmd.qd))
+
+
+def test_a_joint_braking_on_its_own_does_not_stretch_the_others():
+    """Joint 0 brakes for a position limit on its own (a long stop); the other joints still
+    meet their feasible (q̇, q̈) reference within the period. Ruckig stretches synchronised
+    joints to the whole motion's duration, unsynchronised joints included, so a single
+    update used to drag the others along the stop and lose their reference."""
+    dt = 1e-3
+    f = VelocityFilter(3, dt=dt, vmax=3.0, amax=10.0, jmax=100.0)
+    f.reset(qd=[2.5, 0.5, -0.4], qdd=[0.0, 1.0, -0.5])
+    q = np.zeros(3)
+    v_ref, a_ref = np.array([0.5, -0.4]), np.array([1.0, -0.5])
+    brake = np.array([True, False, False])
+    for _ in range(200):
+        a_next = a_ref + np.array([0.02, 0.03])  # a constant-jerk reference (|j| ≤ 30)
+        v_next = v_ref + 0.5 * (a_ref + a_next) * dt
+        q, qd, qdd = f.update(q, np.r_[0.0, v_next], np.r_[0.0, a_next], independent=brake)
+        assert np.allclose(qd[1:], v_next, atol=1e-9) and np.allclose(qdd[1:], a_next, atol=1e-9)
+        v_ref, a_ref = v_next, a_next
+    # the braking joint brakes as hard as it can meanwhile: at full deceleration by now
+    assert qdd[0] == pytest.approx(-10.0)
+
+
+@pytest.mark.parametrize("arm", ["ur5e", "rpr", "iiwa7"])
+def test_a_smoothed_step_says_target_reached_when_within_tolerance(arm):
+    """The status tells the truth: every cycle that starts within the position and
+    orientation tolerance reports target-reached (the approach's last braking is not a
+    limit), and the reference the filter meets has no lag to undo (no overshoot)."""
+    chain = rc.robots.BUILTIN[arm]()
+    rng = np.random.default_rng(1)
+    while True:  # a regular start and goal (near a singularity "damped" would be the truth)
+        q = np.clip(chain.random_q(rng=rng), chain.lower + 0.4, chain.upper - 0.4)
+        if min(np.linalg.svd(chain.jacobian(x), compute_uv=False)[-1] for x in (q, q + 0.05)) > 0.1:
+            break
+    T = chain.fk(q + 0.05)
+    ctrl = rc.ResolvedRateController(chain, smoothing=True)
+    reached = 0
+    for _ in range(3000):
+        cmd = ctrl.step(q, target=T, dt=1e-3)
+        ep, eo = cmd.position_error, cmd.orientation_error
+        if ep <= ctrl.position_tolerance and eo <= ctrl.orientation_tolerance:
+            assert cmd.status == "target-reached", cmd
+            reached += 1
+        q = cmd.q_next
+    assert reached > 100
