@@ -268,11 +268,11 @@ def _live_lines(em: _Emitter, outputs: list) -> list[tuple[str, str]]:
 
 def generate_source(joints: Sequence[Joint], base: np.ndarray, tool: np.ndarray, *, what: str,
                     batched: bool, guard: bool = False) -> str:
-    """Python source of ``kernel(q0, …, q{n-1})`` or, batched, ``kernel(qT, O, W)``.
+    """Python source of ``kernel(q0, …, q{n-1})`` or, batched, ``kernel(qT, W)``.
 
     ``what`` is ``"fk"`` (16 pose entries), ``"jac"`` (6n Jacobian entries) or
     ``"fkjac"`` (both). Scalar kernels return a flat tuple of floats; batched
-    kernels write the k entries into the rows of ``O`` (see `_batched_source`).
+    kernels write the k entries into the first k rows of ``W`` (see `_batched_source`).
     """
     em, frame, axes = _symbolic_chain(joints, base, tool)
     outputs: list = []
@@ -357,21 +357,21 @@ class _Registers:
 
 
 def _batched_source(n: int, lines, outputs, phases) -> str:
-    """Source of the batched kernel ``kernel(qT, O, W)`` and of ``NWORK``, its number of work rows.
+    """Source of the batched kernel ``kernel(qT, W)`` and of ``NWORK``, its number of work rows.
 
     * ``qT`` (n, m): joint positions, one row per joint (any strides);
-    * ``O``: k rows of length m (any strides), one per output entry — typically the
-      transposed view of a chunk of the caller's (B, k) result, so that the result is
-      written in place, with no transposing copy afterwards;
-    * ``W`` (2n + R, m): work rows, float64: cos q, sin q and R registers.
+    * ``W`` (NWORK, m): float64 work rows with contiguous columns: the k output entries in
+      rows ``0…k−1``, then cos q, sin q and the registers. The caller copies ``W[:k].T``
+      into its (m, k) result (one transposing copy per chunk, cheaper than k strided
+      writes: see `ratectl.kinematics.forward`).
 
-    Every generated line is one numpy ufunc call writing into a preallocated row
-    (``out=``): no temporary arrays. The operations, and their order, are those of the
-    single-configuration kernel (the expressions are the same, parsed with `ast`),
-    and numpy's cos/sin are called on the same values, so the batched result equals
-    the looped one to rounding (bit for bit where numpy's cos/sin agree with libm's).
-    An output entry is computed directly into its output row; ``−x`` outputs are
-    computed negated where that costs nothing (``b − a`` for ``−(a − b)``).
+    Every generated line is one numpy ufunc call writing into a preallocated row (the
+    output passed positionally, constants as 0-d arrays ``K…`` made once: a Python float
+    operand costs a conversion on every call): no temporary arrays. The operations, and
+    their order, are those of the single-configuration kernel (the expressions are the
+    same, parsed with `ast`), so the batched result equals the looped one to rounding of
+    cos and sin (see `sincos`). An output entry is computed directly into its output row;
+    ``−x`` outputs are computed negated where that costs nothing (``b − a`` for ``−(a − b)``).
     """
     k_out = len(outputs)
     # where each value is needed: expression uses (line index) and output slots
@@ -393,6 +393,7 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
 
     home: dict[str, str] = {}  # value name -> local holding it (positive)
     regs = _Registers()
+    consts: dict[float, str] = {}  # constant operand -> name of its 0-d array
     body: list[str] = []
     for i in range(n):
         home[f"q{i}"] = f"q{i}"
@@ -421,7 +422,7 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
             scratch_home = True
         else:
             scratch_home = False
-        _emit_tree(body, tree, dest, home, regs)
+        _emit_tree(body, tree, dest, home, regs, consts)
         home[target] = dest
         _emit_copies(body, target, dest, negated, uses)
         # values whose last use was this line free their registers
@@ -433,9 +434,10 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
         if scratch_home and not used_later:
             regs.give(dest)
 
-    head = ["def kernel(qT, O, W):"]
-    head.append(f"    sincos(qT, {'PHASES' if any(phases) else 'None'}, W, {n})")
-    names = [f"cq{i}" for i in range(n)] + [f"sq{i}" for i in range(n)]
+    head = ["def kernel(qT, W):"]
+    head.append(f"    sincos(qT, {'PHASES' if any(phases) else 'None'}, W[{k_out}:], {n})")
+    names = [f"o{k}" for k in range(k_out)]
+    names += [f"cq{i}" for i in range(n)] + [f"sq{i}" for i in range(n)]
     names += [f"r{j}" for j in range(regs.count)]
     head.append(f"    ({', '.join(names)},) = W[:{len(names)}]")
     # an output that is a joint value itself (a prismatic joint's travel with nothing added,
@@ -445,18 +447,19 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
               if isinstance(v, str) and v.lstrip("-") not in defined]
     if any(f"q{i}" in last_use for i in range(n)) or direct:  # prismatic joints use q itself
         head.append(f"    ({', '.join(f'q{i}' for i in range(n))},) = qT")
-    head.append(f"    ({', '.join(f'o{k}' for k in range(k_out))},) = O")
     for k, v in enumerate(outputs):
         if not isinstance(v, str):
             body.append(f"    o{k}.fill({float(v)!r})")
     for k, v in direct:
         if v.startswith("-"):
-            body.append(f"    negative({v[1:]}, out=o{k})")
+            body.append(f"    negative({v[1:]}, o{k})")
         else:
             body.append(f"    copyto(o{k}, {v})")
-    pre = f"NWORK = {2 * n + max(regs.count, 5 * n)}  # rows of W: cos q, sin q, registers\n"
+    pre = f"NWORK = {k_out + 2 * n + max(regs.count, 5 * n)}  # rows of W: outputs, cos q, sin q, registers\n"
     if any(phases):
         pre += f"PHASES = array({[[p] for p in phases]!r})  # joint angle offsets [rad]\n"
+    for value, name in consts.items():
+        pre += f"{name} = array({value!r})\n"
     head.insert(0, pre + "\n")
     return "\n".join(head + body) + "\n"
 
@@ -469,16 +472,17 @@ def _emit_copies(body, target, src, negated, uses) -> None:
         if neg == negated:
             body.append(f"    copyto(o{k}, {src})")
         else:
-            body.append(f"    negative({src}, out=o{k})")
+            body.append(f"    negative({src}, o{k})")
 
 
-def _emit_tree(body, tree, dest, home, regs) -> None:
-    """One ufunc call per binary operation of ``tree``; the root writes into ``dest``."""
+def _emit_tree(body, tree, dest, home, regs, consts) -> None:
+    """One ufunc call per binary operation of ``tree``; the root writes into ``dest``.
+    Constant operands are named 0-d arrays, collected in ``consts`` (value -> name)."""
 
     def operand(node: Any) -> tuple[str, bool]:
         c = _const(node)
         if c is not None:
-            return repr(c), False
+            return consts.setdefault(c, f"K{len(consts)}"), False
         if isinstance(node, ast.Name):
             return home[node.id], False
         return emit(node, None), True
@@ -493,7 +497,7 @@ def _emit_tree(body, tree, dest, home, regs) -> None:
         for name, temp in ((left, lt), (right, rt)):
             if temp and name != out:
                 regs.give(name)
-        body.append(f"    {_UFUNC[type(node.op)]}({left}, {right}, out={out})")
+        body.append(f"    {_UFUNC[type(node.op)]}({left}, {right}, {out})")
         return out
 
     if isinstance(tree, ast.Name):
@@ -546,7 +550,14 @@ def _trig_tables():
 _COS_T, _COS_LO, _SIN_T, _SIN_LO, _STEP_A, _STEP_B, _INV_STEP = _trig_tables()
 
 
-def sincos(qT: np.ndarray, phases: Sequence[float], W: np.ndarray, n: int) -> None:
+_MAGIC = 1.5 * 2.0**52  # t + _MAGIC rounds |t| < 2**51 to an integer, held in the low mantissa bits
+_K = {name: np.array(value) for name, value in (  # 0-d operands: no float conversion per call
+    ("inv", _INV_STEP), ("a", _STEP_A), ("b", _STEP_B), ("magic", _MAGIC), ("s5", 1.0 / 120.0),
+    ("s3", -1.0 / 6.0), ("c6", -1.0 / 720.0), ("c4", 1.0 / 24.0), ("c2", -0.5))}
+_TRIG_MASK = np.array(_TRIG_N - 1, dtype=np.int64)
+
+
+def sincos(qT: np.ndarray, phases: np.ndarray | None, W: np.ndarray, n: int) -> None:
     """cos(q + φ) into ``W[:n]`` and sin(q + φ) into ``W[n:2n]`` for the (n, m) block qT,
     using ``W[2n:7n]`` as scratch; one ufunc call per operation over the whole block.
 
@@ -555,53 +566,60 @@ def sincos(qT: np.ndarray, phases: Sequence[float], W: np.ndarray, n: int) -> No
     correctly rounded table, ``cos x = C₀ + (C₀(cos δ − 1) − S₀ sin δ)`` and
     ``sin x = S₀ + (S₀(cos δ − 1) + C₀ sin δ)``, sin δ and cos δ − 1 by their Taylor
     series to δ⁵ and δ⁶ (truncation < 1e-17). Error ≲ 1 ulp; numpy's own float64 cos and
-    sin run one element at a time in libm, ~3× slower than these 29 vectorised passes.
+    sin run one element at a time in libm, ~4× slower than these 30 vectorised passes.
+
+    k is rounded by adding 1.5·2⁵² (exact for |k| < 2⁵¹, ties to even like ``rint``): the
+    sum's low mantissa bits are k in two's complement, so its integer view masked to
+    N − 1 is the table index (k mod N) with no float-to-integer conversion pass.
     """
+    K = _K
     C, S = W[:n], W[n:2 * n]
     x, k, d, e = W[2 * n:3 * n], W[3 * n:4 * n], W[4 * n:5 * n], W[5 * n:6 * n]
-    idx = W[6 * n:7 * n].view(np.int64)
+    y = W[6 * n:7 * n]
+    idx = y.view(np.int64)
     if phases is None:
         x = qT  # read only; the scratch row block x is taken again below
     else:
-        np.add(qT, phases, out=x)
+        np.add(qT, phases, x)
     if not (-_TRIG_RANGE <= x.min() and x.max() <= _TRIG_RANGE):  # k·A no longer exact: libm
-        np.cos(x, out=C)
-        np.sin(x, out=S)
+        np.cos(x, C)
+        np.sin(x, S)
         return
-    np.multiply(x, _INV_STEP, out=k)
-    np.rint(k, out=k)
-    np.multiply(k, _STEP_A, out=e)
-    np.subtract(x, e, out=d)
-    np.multiply(k, _STEP_B, out=e)
-    np.subtract(d, e, out=d)
-    np.copyto(idx, k, casting="unsafe")
-    np.bitwise_and(idx, _TRIG_N - 1, out=idx)
-    np.take(_COS_T, idx, out=C)
-    np.take(_SIN_T, idx, out=S)
-    np.multiply(d, d, out=k)  # δ²
+    multiply, add, subtract, take = np.multiply, np.add, np.subtract, np.take
+    multiply(x, K["inv"], y)
+    add(y, K["magic"], y)  # MAGIC + k
+    subtract(y, K["magic"], k)  # k, exactly
+    multiply(k, K["a"], e)
+    subtract(x, e, d)
+    multiply(k, K["b"], e)
+    subtract(d, e, d)  # δ
+    np.bitwise_and(idx, _TRIG_MASK, idx)  # k mod N: the index is in range, so "wrap" never wraps
+    take(_COS_T, idx, None, C, "wrap")
+    take(_SIN_T, idx, None, S, "wrap")
+    multiply(d, d, k)  # δ²
     x = W[2 * n:3 * n]
-    np.multiply(k, 1.0 / 120.0, out=x)
-    np.add(x, -1.0 / 6.0, out=x)
-    np.multiply(x, k, out=x)
-    np.multiply(x, d, out=x)
-    np.add(x, d, out=x)  # sin δ
-    np.multiply(k, -1.0 / 720.0, out=e)
-    np.add(e, 1.0 / 24.0, out=e)
-    np.multiply(e, k, out=e)
-    np.add(e, -0.5, out=e)
-    np.multiply(e, k, out=e)  # cos δ − 1
-    np.multiply(C, e, out=d)
-    np.multiply(S, x, out=k)
-    np.subtract(d, k, out=d)
-    np.take(_COS_LO, idx, out=k)
-    np.add(d, k, out=d)
-    np.multiply(S, e, out=e)
-    np.multiply(C, x, out=k)
-    np.add(e, k, out=e)
-    np.take(_SIN_LO, idx, out=k)
-    np.add(e, k, out=e)
-    np.add(C, d, out=C)
-    np.add(S, e, out=S)
+    multiply(k, K["s5"], x)
+    add(x, K["s3"], x)
+    multiply(x, k, x)
+    multiply(x, d, x)
+    add(x, d, x)  # sin δ
+    multiply(k, K["c6"], e)
+    add(e, K["c4"], e)
+    multiply(e, k, e)
+    add(e, K["c2"], e)
+    multiply(e, k, e)  # cos δ − 1
+    multiply(C, e, d)
+    multiply(S, x, k)
+    subtract(d, k, d)
+    take(_COS_LO, idx, None, k, "wrap")
+    add(d, k, d)
+    multiply(S, e, e)
+    multiply(C, x, k)
+    add(e, k, e)
+    take(_SIN_LO, idx, None, k, "wrap")
+    add(e, k, e)
+    add(C, d, C)
+    add(S, e, S)
 
 
 _SERIAL = itertools.count()
