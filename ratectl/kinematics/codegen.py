@@ -313,29 +313,62 @@ def _const(node) -> float | None:
     return None
 
 
-def _negate(node):
-    """An expression tree for ``-node`` with no extra operation, or None.
+def _signed(node, want: int, sign: dict[str, int]):
+    """An expression tree computing ``want · node`` (want = ±1) in one operation per
+    operator of ``node``, or None when that needs an extra negation.
 
-    Exact in IEEE arithmetic (rounding is symmetric): −(a − b) = b − a,
-    −(a·c) = a·(−c), −(a + b) = (−a) − b.
+    A name ``v`` in the tree stands for the stored value ``sign[v] · v`` (default +1).
+    Every rewrite is exact in IEEE arithmetic (rounding is symmetric in sign, + and · are
+    commutative): −(a·b) = (−a)·b, −(a + b) = (−a) − b, −(a − b) = b − a, a − b = a + (−b).
     """
     c = _const(node)
     if c is not None:
-        return ast.Constant(-c)
-    if isinstance(node, ast.BinOp):
-        if isinstance(node.op, ast.Sub):
-            return ast.BinOp(node.right, ast.Sub(), node.left)
-        if isinstance(node.op, ast.Mult):
-            if _const(node.right) is not None:
-                return ast.BinOp(node.left, ast.Mult(), ast.Constant(-_const(node.right)))
-            if _const(node.left) is not None:
-                return ast.BinOp(ast.Constant(-_const(node.left)), ast.Mult(), node.right)
-            return None
-        if isinstance(node.op, ast.Add):
-            left = _negate(node.left)
-            if left is not None:
-                return ast.BinOp(left, ast.Sub(), node.right)
+        return ast.Constant(want * c)
+    if isinstance(node, ast.Name):
+        return node if sign.get(node.id, 1) == want else None
+    if not isinstance(node, ast.BinOp):
+        return None
+    a, b = node.left, node.right
+    if isinstance(node.op, ast.Mult):
+        options = [(ast.Mult, a, 1, b, want), (ast.Mult, a, -1, b, -want)]
+    elif isinstance(node.op, ast.Add):
+        options = [(ast.Add, a, want, b, want), (ast.Sub, a, want, b, -want),
+                   (ast.Sub, b, want, a, -want)]
+    elif isinstance(node.op, ast.Sub):
+        options = [(ast.Sub, a, want, b, want), (ast.Add, a, want, b, -want),
+                   (ast.Sub, b, -want, a, -want)]
+    else:
+        return None
+    for op, left, w_left, right, w_right in options:
+        x = _signed(left, w_left, sign)
+        y = _signed(right, w_right, sign) if x is not None else None
+        if y is not None:
+            return ast.BinOp(x, op(), y)
     return None
+
+
+def _sign_votes(lines, parsed, outputs, fixed: set[str]) -> dict[str, int]:
+    """For each value, the sign its consumers would like it stored with (Σ of ±1 votes).
+
+    Output slots vote with their sign; a product ``a·b`` of a value and a fixed-sign row
+    (cos q, sin q, q) passes its own vote on to the value, so that ``−(cos q₀ · t)`` becomes
+    ``cos q₀ · (−t)`` with ``−t`` computed for free (``b − a`` for ``a − b``).
+    """
+    votes: dict[str, int] = {}
+    for v in outputs:
+        if isinstance(v, str):
+            name = v.lstrip("-")
+            votes[name] = votes.get(name, 0) + (-1 if v.startswith("-") else 1)
+    for (target, _expr), tree in zip(reversed(lines), reversed(parsed), strict=True):
+        vote = votes.get(target, 0)
+        if tree is None or vote == 0 or not (isinstance(tree, ast.BinOp)
+                                             and isinstance(tree.op, ast.Mult)):
+            continue
+        names = [f.id for f in (tree.left, tree.right) if isinstance(f, ast.Name)]
+        free = [name for name in names if name not in fixed]
+        if len(names) == 2 and len(free) == 1:
+            votes[free[0]] = votes.get(free[0], 0) + (1 if vote > 0 else -1)
+    return votes
 
 
 class _Registers:
@@ -391,7 +424,13 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
         if isinstance(v, str):
             slots.setdefault(v.lstrip("-"), []).append((k, v.startswith("-")))
 
-    home: dict[str, str] = {}  # value name -> local holding it (positive)
+    # cos q, sin q and q are stored as they are; every other value with the sign its
+    # consumers want where that costs nothing (`_signed`), so few negations are left
+    fixed = {target for (target, _), tree in zip(lines, parsed, strict=True) if tree is None}
+    fixed.update(f"q{i}" for i in range(n))
+    votes = _sign_votes(lines, parsed, outputs, fixed)
+    sign: dict[str, int] = {}
+    home: dict[str, str] = {}  # value name -> local holding it (times its sign)
     regs = _Registers()
     consts: dict[float, str] = {}  # constant operand -> name of its 0-d array
     body: list[str] = []
@@ -406,32 +445,27 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
             home[target] = f"{'c' if expr.startswith('cos') else 's'}q{i}"
             _emit_copies(body, target, home[target], False, slots.get(target, []))
             continue
-        tree = parsed_tree
         uses = slots.get(target, [])
         used_later = last_use.get(target, -1) > idx
-        dest, negated = None, False
-        pos = [k for k, neg in uses if not neg]
-        if pos:
-            dest = f"o{pos[0]}"
-        elif uses and not used_later:
-            neg_tree = _negate(tree)
-            if neg_tree is not None:
-                tree, dest, negated = neg_tree, f"o{uses[0][0]}", True
-        if dest is None:
-            dest = regs.take()
-            scratch_home = True
-        else:
-            scratch_home = False
+        prefer = -1 if votes.get(target, 0) < 0 else 1
+        tree = _signed(parsed_tree, prefer, sign)
+        if tree is None:
+            prefer = -prefer
+            tree = _signed(parsed_tree, prefer, sign)
+        assert tree is not None  # one of the two signs is always free
+        sign[target] = prefer
+        same = [k for k, neg in uses if neg == (prefer < 0)]
+        dest = f"o{same[0]}" if same else regs.take()
         _emit_tree(body, tree, dest, home, regs, consts)
         home[target] = dest
-        _emit_copies(body, target, dest, negated, uses)
+        _emit_copies(body, target, dest, prefer < 0, uses)
         # values whose last use was this line free their registers
         for node in ast.walk(parsed_tree):
             if isinstance(node, ast.Name) and last_use.get(node.id) == idx:
                 h = home.get(node.id, "")
                 if h.startswith("r") and h not in regs.free:
                     regs.give(h)
-        if scratch_home and not used_later:
+        if not same and not used_later:
             regs.give(dest)
 
     head = ["def kernel(qT, W):"]
