@@ -329,6 +329,7 @@ def _signed(node, want: int, sign: dict[str, int]):
     if not isinstance(node, ast.BinOp):
         return None
     a, b = node.left, node.right
+    options: list[tuple[type[ast.operator], ast.expr, int, ast.expr, int]]
     if isinstance(node.op, ast.Mult):
         options = [(ast.Mult, a, 1, b, want), (ast.Mult, a, -1, b, -want)]
     elif isinstance(node.op, ast.Add):
