@@ -146,19 +146,21 @@ def _single(chain, q):
 
 _tls = threading.local()
 
-_CHUNK_BYTES = 3 * 1024 * 1024  # work rows (outputs included) of one chunk: stays in L2/L3 cache
-_CHUNK_MIN, _CHUNK_MAX = 1024, 8192
+_CHUNK_BYTES = 6 * 1024 * 1024  # work rows (outputs included) of one chunk, at most
+_CHUNK_MIN, _CHUNK_MAX = 2048, 6144
 
 
 def _chunk(width: int, nwork: int) -> int:
     """Columns per batched kernel call.
 
-    Each generated line is one ufunc call (~0.2 µs overhead), so chunks must be long;
-    but the chunk's work rows (8 bytes per entry, the output rows among them) should stay
-    in cache. An odd multiple of 8 columns: rows an odd number of 64-byte cache lines
-    apart spread over all cache sets, which the transposing copy of the output rows (one
-    line from each of k rows per configuration) needs; rows a multiple of 4 kB apart would
-    all map to the same sets and that copy would run 2-4× slower.
+    Each generated line is one ufunc call (~0.2 µs overhead), so chunks must be long: on
+    the UR5e (94 work rows) 5000-6000 columns were best, 2000 10 % slower, 1000 40 %
+    slower, and 8000 no better; a 24-joint chain (328 rows) was also fastest at 5000-6000
+    and 10-20 % slower at 2000. The work array is capped at ``_CHUNK_BYTES``. An odd multiple
+    of 8 columns: rows an odd number of 64-byte cache lines apart spread over all cache
+    sets, which the transposing copy of the output rows (one entry from each of k rows per
+    configuration) needs; rows a multiple of 4 kB apart would all map to the same sets
+    and that copy would run 2-4× slower.
     """
     m = _CHUNK_BYTES // (8 * nwork)
     m = max(_CHUNK_MIN, min(_CHUNK_MAX, m)) // 16 * 16
@@ -173,7 +175,7 @@ def _workspace(rows: int, m: int) -> np.ndarray:
         cache = _tls.work = {}
     W = cache.get((rows, m))
     if W is None:
-        if len(cache) >= 4:  # a few kernel shapes per thread, ~1-3 MB each
+        if len(cache) >= 3:  # a few kernel shapes per thread, up to _CHUNK_BYTES each
             cache.clear()
         W = cache[(rows, m)] = np.empty((rows, m))
     return W
