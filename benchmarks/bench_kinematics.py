@@ -202,6 +202,54 @@ def update_docs(text: str, path: str) -> None:
     print(f"wrote the tables into {path}")
 
 
+def profile(clock: str) -> None:
+    """Where the batched UR5e fk_jacobian time goes, ns per configuration (B = 10^5), and
+    throughput at B = 10^4, 10^5, 10^6 (chunking against cache sizes)."""
+    from ratectl.kinematics import codegen, forward
+
+    chain = rc.robots.ur5e()
+    rng = np.random.default_rng(1)
+    print("\nUR5e batched fk_jacobian throughput by batch size (best of 3 medians):")
+    for B in (10_000, 100_000, 1_000_000):
+        qs = chain.random_q(B, rng=rng)
+        best = min(median_s(lambda: chain.fk_jacobian(qs), repeat=3 if B > 100_000 else 7, clock=clock)
+                   for _ in range(3))
+        print(f"  B = {B:9,d}: {B / best / 1e6:6.2f} M configurations/s, {best / B * 1e9:5.0f} ns each")
+    B = 100_000
+    qs = chain.random_q(B, rng=rng)
+    kern = forward.build_kernel(chain, ("fkjac", True))
+    m = forward._chunk(52, kern.__nwork__)
+    W = np.empty((kern.__nwork__, m))
+    qT, T, J, chunks = qs[:m].T, np.empty((B, 16)), np.empty((B, 36)), B // m
+
+    def kernel_only():
+        for _ in range(chunks):
+            kern(qT, W)
+
+    def sincos_only():
+        for _ in range(chunks):
+            codegen.sincos(qT, None, W[52:], 6)
+
+    def copies_only():
+        for i in range(chunks):
+            np.copyto(T[i * m:(i + 1) * m], W[:16].T)
+            np.copyto(J[i * m:(i + 1) * m], W[16:52].T)
+
+    rows = []
+    for _ in range(5):
+        total = median_s(lambda: chain.fk_jacobian(qs), clock=clock) / B
+        kern_s, sc_s, cp_s = (median_s(f, clock=clock) / (chunks * m)
+                              for f in (kernel_only, sincos_only, copies_only))
+        rows.append((total, sc_s, kern_s - sc_s, cp_s, total - kern_s - cp_s))
+    r = np.median(np.array(rows), axis=0) * 1e9
+    lines = kern.__source__.split("def kernel")[1].count("\n") - 3
+    print(f"where the time goes at B = {B:,} ({m}-column chunks, {kern.__nwork__} work rows, "
+          f"{lines} kernel lines), ns per configuration, median of 5:")
+    for name, v in zip(("total", "sin/cos (sincos)", "kernel arithmetic", "transposing copies into the "
+                        "result", "rest (checks, allocation, chunk loop)"), r, strict=True):
+        print(f"  {name:40s} {v:6.1f}")
+
+
 def bench_pinocchio(chain, q, qs):
     import pinocchio as pin
 
@@ -289,7 +337,12 @@ def main(argv=None) -> None:
                     help="write the Pinocchio tables into docs/benchmarks.md (implies --markdown)")
     ap.add_argument("--rounds", type=int, default=5,
                     help="repetitions of the UR5e comparison (best and median ratios)")
+    ap.add_argument("--profile", action="store_true",
+                    help="only: where the batched UR5e time goes, and throughput at B = 1e4..1e6")
     args = ap.parse_args(argv)
+    if args.profile:
+        profile(args.clock)
+        return
     rng = np.random.default_rng(0)
     print(f"ratectl {rc.__version__}, numpy {np.__version__}, clock {args.clock}")
     try:
