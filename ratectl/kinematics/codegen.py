@@ -351,24 +351,37 @@ def _signed(node, want: int, sign: dict[str, int]):
 def _sign_votes(lines, parsed, outputs, fixed: set[str]) -> dict[str, int]:
     """For each value, the sign its consumers would like it stored with (Σ of ±1 votes).
 
-    Output slots vote with their sign; a product ``a·b`` of a value and a fixed-sign row
-    (cos q, sin q, q) passes its own vote on to the value, so that ``−(cos q₀ · t)`` becomes
-    ``cos q₀ · (−t)`` with ``−t`` computed for free (``b − a`` for ``a − b``).
+    Output slots vote with their sign; a line passes its own vote on to its operands where
+    their signs decide the result's: both terms of a sum (the subtrahend negated), and the
+    value in a product with a fixed-sign row (cos q, sin q, q). So ``−(cos q₀ · t)`` becomes
+    ``cos q₀ · (−t)`` with ``−t`` computed for free (``b − a`` for ``a − b``). A product
+    with a constant takes either sign for free and passes nothing on.
     """
     votes: dict[str, int] = {}
     for v in outputs:
         if isinstance(v, str):
             name = v.lstrip("-")
             votes[name] = votes.get(name, 0) + (-1 if v.startswith("-") else 1)
+
+    def push(node, vote: int) -> None:
+        if isinstance(node, ast.Name):
+            if node.id not in fixed:
+                votes[node.id] = votes.get(node.id, 0) + vote
+        elif isinstance(node, ast.BinOp):
+            if isinstance(node.op, ast.Add | ast.Sub):
+                push(node.left, vote)
+                push(node.right, vote if isinstance(node.op, ast.Add) else -vote)
+            elif isinstance(node.op, ast.Mult) and _const(node.left) is None \
+                    and _const(node.right) is None:
+                fixed_factor = [isinstance(f, ast.Name) and f.id in fixed
+                                for f in (node.left, node.right)]
+                if fixed_factor[0] != fixed_factor[1]:
+                    push(node.right if fixed_factor[0] else node.left, vote)
+
     for (target, _expr), tree in zip(reversed(lines), reversed(parsed), strict=True):
         vote = votes.get(target, 0)
-        if tree is None or vote == 0 or not (isinstance(tree, ast.BinOp)
-                                             and isinstance(tree.op, ast.Mult)):
-            continue
-        names = [f.id for f in (tree.left, tree.right) if isinstance(f, ast.Name)]
-        free = [name for name in names if name not in fixed]
-        if len(names) == 2 and len(free) == 1:
-            votes[free[0]] = votes.get(free[0], 0) + (1 if vote > 0 else -1)
+        if tree is not None and vote != 0:
+            push(tree, 1 if vote > 0 else -1)
     return votes
 
 
