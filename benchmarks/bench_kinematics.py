@@ -220,11 +220,13 @@ def profile(clock: str) -> None:
     kern = forward.build_kernel(chain, ("fkjac", True))
     m = forward._chunk(52, kern.__nwork__)
     W = np.empty((kern.__nwork__, m))
+    kern.__prepare__(W)
+    rows_of_W = tuple(W)
     qT, T, J, chunks = qs[:m].T, np.empty((B, 16)), np.empty((B, 36)), B // m
 
     def kernel_only():
         for _ in range(chunks):
-            kern(qT, W)
+            kern(qT, W, rows_of_W)
 
     def sincos_only():
         for _ in range(chunks):

@@ -404,21 +404,25 @@ class _Registers:
 
 
 def _batched_source(n: int, lines, outputs, phases) -> str:
-    """Source of the batched kernel ``kernel(qT, W)`` and of ``NWORK``, its number of work rows.
+    """Source of the batched kernel ``kernel(qT, W, rows)``, of ``prepare(W)`` and of
+    ``NWORK``, the kernel's number of work rows.
 
     * ``qT`` (n, m): joint positions, one row per joint (any strides);
     * ``W`` (NWORK, m): float64 work rows with contiguous columns: the k output entries in
       rows ``0…k−1``, then cos q, sin q and the registers. The caller copies ``W[:k].T``
       into its (m, k) result (one transposing copy per chunk, cheaper than k strided
-      writes: see `ratectl.kinematics.forward`).
+      writes: see `ratectl.kinematics.forward`);
+    * ``rows``: ``tuple(W)``, made once per work array (a view per row costs ~0.1 µs);
+    * ``prepare(W)`` fills the constant output rows (0 and 1 entries), which the kernel
+      never writes: once per work array, not per chunk.
 
     Every generated line is one numpy ufunc call writing into a preallocated row (the
     output passed positionally, constants as 0-d arrays ``K…`` made once: a Python float
     operand costs a conversion on every call): no temporary arrays. The operations, and
     their order, are those of the single-configuration kernel (the expressions are the
     same, parsed with `ast`), so the batched result equals the looped one to rounding of
-    cos and sin (see `sincos`). An output entry is computed directly into its output row;
-    ``−x`` outputs are computed negated where that costs nothing (``b − a`` for ``−(a − b)``).
+    cos and sin (see `sincos`). Values are stored with the sign their consumers want
+    where that is free (`_signed`), and an output entry is computed directly into its row.
     """
     k_out = len(outputs)
     # where each value is needed: expression uses (line index) and output slots
@@ -482,12 +486,12 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
         if not same and not used_later:
             regs.give(dest)
 
-    head = ["def kernel(qT, W):"]
+    head = ["def kernel(qT, W, rows):"]
     head.append(f"    sincos(qT, {'PHASES' if any(phases) else 'None'}, W[{k_out}:], {n})")
     names = [f"o{k}" for k in range(k_out)]
     names += [f"cq{i}" for i in range(n)] + [f"sq{i}" for i in range(n)]
     names += [f"r{j}" for j in range(regs.count)]
-    head.append(f"    ({', '.join(names)},) = W[:{len(names)}]")
+    head.append(f"    ({', '.join(names)},) = rows[:{len(names)}]")
     # an output that is a joint value itself (a prismatic joint's travel with nothing added,
     # e.g. the first joint of a chain with d = 0) is defined by no line: copy it from qT
     defined = {target for target, _ in lines}
@@ -495,9 +499,10 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
               if isinstance(v, str) and v.lstrip("-") not in defined]
     if any(f"q{i}" in last_use for i in range(n)) or direct:  # prismatic joints use q itself
         head.append(f"    ({', '.join(f'q{i}' for i in range(n))},) = qT")
-    for k, v in enumerate(outputs):
-        if not isinstance(v, str):
-            body.append(f"    o{k}.fill({float(v)!r})")
+    prepare = ["def prepare(W):  # the constant output rows, filled once per work array"]
+    prepare += [f"    W[{k}].fill({float(v)!r})" for k, v in enumerate(outputs) if not isinstance(v, str)]
+    if len(prepare) == 1:
+        prepare.append("    pass")
     for k, v in direct:
         if v.startswith("-"):
             body.append(f"    negative({v[1:]}, o{k})")
@@ -508,7 +513,7 @@ def _batched_source(n: int, lines, outputs, phases) -> str:
         pre += f"PHASES = array({[[p] for p in phases]!r})  # joint angle offsets [rad]\n"
     for value, name in consts.items():
         pre += f"{name} = array({value!r})\n"
-    head.insert(0, pre + "\n")
+    head.insert(0, pre + "\n\n" + "\n".join(prepare) + "\n\n")
     return "\n".join(head + body) + "\n"
 
 
@@ -724,4 +729,5 @@ def _compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str,
     fn: Any = namespace["kernel"]
     fn.__source__ = src
     fn.__nwork__ = namespace.get("NWORK", 0)
+    fn.__prepare__ = namespace.get("prepare")
     return fn

@@ -112,12 +112,13 @@ def _reference_kernel(chain, what: str, batched: bool):
     def scalar_kernel(*q: Any) -> tuple[float, ...]:
         return tuple(flat(np.array(q, dtype=float)).tolist())
 
-    def batched_kernel(qT: Any, W: Any) -> None:
+    def batched_kernel(qT: Any, W: Any, rows: Any) -> None:
         vals = flat(np.ascontiguousarray(qT.T))
         W[:vals.shape[1]] = vals.T
 
     # read by _batched like a generated kernel's: the output rows are all the work it needs
     batched_kernel.__nwork__ = {"fk": 16, "jac": 6 * n, "fkjac": 16 + 6 * n}[what]  # type: ignore[attr-defined]
+    batched_kernel.__prepare__ = lambda W: None  # type: ignore[attr-defined]  # writes every row itself
     return batched_kernel if batched else scalar_kernel
 
 
@@ -167,18 +168,33 @@ def _chunk(width: int, nwork: int) -> int:
     return m + 8
 
 
-def _workspace(rows: int, m: int) -> np.ndarray:
-    """A per-thread (rows, m) float64 work array, reused across calls: fresh buffers cost
-    page faults on first touch, and sharing one between threads would race."""
+class _Work:
+    """A per-thread work array ``W``, its row views, and the kernel whose constant rows it holds."""
+
+    __slots__ = ("W", "rows", "prepared_for")
+
+    def __init__(self, W: np.ndarray) -> None:
+        self.W = W
+        self.rows = tuple(W)
+        self.prepared_for: Any = None
+
+
+def _workspace(rows: int, m: int, kern: Any) -> _Work:
+    """A per-thread (rows, m) float64 work array, reused across calls (fresh buffers cost
+    page faults on first touch, and sharing one between threads would race), with the
+    constant output rows of ``kern`` filled (once, until another kernel uses it)."""
     cache = getattr(_tls, "work", None)
     if cache is None:
         cache = _tls.work = {}
-    W = cache.get((rows, m))
-    if W is None:
+    work = cache.get((rows, m))
+    if work is None:
         if len(cache) >= 3:  # a few kernel shapes per thread, up to _CHUNK_BYTES each
             cache.clear()
-        W = cache[(rows, m)] = np.empty((rows, m))
-    return W
+        work = cache[(rows, m)] = _Work(np.empty((rows, m)))
+    if work.prepared_for is not kern:
+        kern.__prepare__(work.W)
+        work.prepared_for = kern
+    return work
 
 
 def _batched(chain, flat: np.ndarray, what: str, parts) -> None:
@@ -196,13 +212,17 @@ def _batched(chain, flat: np.ndarray, what: str, parts) -> None:
     m = _chunk(sum(p.shape[1] for p in parts), nwork)
     if B < m:  # one chunk; its rows keep the spread stride (an odd multiple of 8 columns)
         m = -(-B // 16) * 16 + 8
-    W = _workspace(nwork, m)
+    work = _workspace(nwork, m, kern)
     qT = flat.T
     copyto = np.copyto
     for start in range(0, B, m):
         stop = min(start + m, B)
-        w = W if stop - start == m else W[:, :stop - start]  # the last, shorter chunk
-        kern(qT[:, start:stop], w)
+        if stop - start == m:
+            w, rows = work.W, work.rows
+        else:  # the last, shorter chunk
+            w = work.W[:, :stop - start]
+            rows = tuple(w)
+        kern(qT[:, start:stop], w, rows)
         row = 0
         for p in parts:
             copyto(p[start:stop], w[row:row + p.shape[1]].T)
