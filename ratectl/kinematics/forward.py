@@ -148,7 +148,7 @@ def _single(chain, q):
 _tls = threading.local()
 
 _CHUNK_BYTES = 6 * 1024 * 1024  # work rows (outputs included) of one chunk, at most
-_CHUNK_MIN, _CHUNK_MAX = 2048, 6144
+_CHUNK_MIN, _CHUNK_MAX = 512, 6144
 
 
 def _chunk(width: int, nwork: int) -> int:
@@ -157,7 +157,8 @@ def _chunk(width: int, nwork: int) -> int:
     Each generated line is one ufunc call (~0.2 µs overhead), so chunks must be long: on
     the UR5e (94 work rows) 5000-6000 columns were best, 2000 10 % slower, 1000 40 %
     slower, and 8000 no better; a 24-joint chain (328 rows) was also fastest at 5000-6000
-    and 10-20 % slower at 2000. The work array is capped at ``_CHUNK_BYTES``. An odd multiple
+    and 10-20 % slower at 2000 (2400 columns fill the 6 MB budget). The work array is
+    capped at ``_CHUNK_BYTES`` (longer chains get shorter chunks, 512 at least). An odd multiple
     of 8 columns: rows an odd number of 64-byte cache lines apart spread over all cache
     sets, which the transposing copy of the output rows (one entry from each of k rows per
     configuration) needs; rows a multiple of 4 kB apart would all map to the same sets
