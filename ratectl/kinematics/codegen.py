@@ -9,9 +9,10 @@ forward recursion symbolically once, fold away every product with 0 and ±1
 
 * on Python floats (``math.cos``), for one configuration — a few µs;
 * on numpy arrays, for a batch in chunks of columns — one ufunc call per arithmetic
-  operation, each writing into a preallocated work row or straight into the caller's
-  result (no temporary arrays, no transposing copies), in the same order as the
-  scalar kernel, so batched and looped results agree to rounding.
+  operation, each writing into a preallocated contiguous work row (no temporary arrays;
+  the caller moves the output rows into its result with one transposing copy per
+  chunk), with the operations of the scalar kernel up to exact sign rewrites, so
+  batched and looped results agree to the rounding of cos and sin.
 
 The recursion for joint i is ``T_i = T_{i-1} · P_i · M_i(q_i) · Q_i`` with constant
 ``P_i``, ``Q_i`` and the joint motion ``M_i`` = Rz(q) (revolute) or Tz(q) (prismatic),
