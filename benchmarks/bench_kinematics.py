@@ -1,6 +1,7 @@
 """Kinematics speed: fk + Jacobian for one configuration, and batched Jacobians.
 
-Run:  python benchmarks/bench_kinematics.py [--quick] [--clock cpu|wall] [--markdown]
+Run:  python benchmarks/bench_kinematics.py [--quick] [--clock cpu|wall] [--rounds R]
+                                           [--markdown | --update-docs]
 
 Prints, for each built-in arm, the median µs per call of ``fk_jacobian`` (one
 combined call) and of ``fk`` + ``jacobian`` (two calls), and configurations per
@@ -14,8 +15,12 @@ them in the same run (same arm, results cross-checked) and ratios are printed:
   (ratio of configurations per second), B = 10^4 and 10^5;
 * cost growth with the number of joints: random standard-DH chains of 3, 6, 7, 12 and
   24 revolute joints (seeded), the same chain built in Pinocchio from its joint
-  placements, single and batched (B = 10^4), as ratios; ``--markdown`` prints this
-  table for docs/benchmarks.md.
+  placements, single and batched (B = 10^4), as ratios.
+
+The UR5e comparison runs ``--rounds`` times (default 5) and reports the best and the
+median ratio. ``--markdown`` prints both tables as markdown; ``--update-docs`` also
+writes them into docs/benchmarks.md, between the ``bench_kinematics.py --update-docs``
+markers, with the date, the machine and the load.
 
 Times are this thread's CPU time by default (``--clock cpu``): on a shared machine it
 leaves out the time other processes hold the core. Pin to one core for the "one core"
@@ -102,18 +107,30 @@ def pinocchio_pair(chain, clock: str, B: int, rng, number: int):
     return ours_us, pin_us, ours_rate, loop_rate
 
 
-def headline(clock: str, quick: bool, rng) -> None:
-    """UR5e: single fk_jacobian and batched fk_jacobian beside Pinocchio, as ratios."""
+def headline(clock: str, quick: bool, rng, rounds: int) -> dict:
+    """UR5e: single and batched fk_jacobian beside Pinocchio, as ratios, ``rounds`` times.
+
+    Returns {B: [(ratectl M/s, Pinocchio-loop M/s, batched ratio, single ratio), ...]}.
+    """
     chain = rc.robots.ur5e()
     print("\nUR5e fk_jacobian beside Pinocchio (computeFrameJacobian + updateFramePlacement):")
-    for B in (10_000,) if quick else (10_000, 100_000):
-        us, pus, rate, prate = pinocchio_pair(chain, clock, B, rng, 500 if quick else 3000)
-        print(f"  B = {B:6d}: batched {rate / 1e6:6.2f} M configs/s, Pinocchio loop "
-              f"{prate / 1e6:5.3f} M/s -> {rate / prate:5.1f}x the loop | one configuration "
-              f"{us:5.2f} µs vs {pus:5.2f} µs -> {us / pus:4.2f}x Pinocchio's time")
+    runs: dict = {}
+    for k in range(rounds):
+        for B in (10_000,) if quick else (10_000, 100_000):
+            us, pus, rate, prate = pinocchio_pair(chain, clock, B, rng, 500 if quick else 3000)
+            runs.setdefault(B, []).append((rate / 1e6, prate / 1e6, rate / prate, us / pus))
+            print(f"  round {k + 1} B = {B:6d}: batched {rate / 1e6:6.2f} M configs/s, Pinocchio loop "
+                  f"{prate / 1e6:5.3f} M/s -> {rate / prate:5.1f}x the loop | one configuration "
+                  f"{us:5.2f} µs vs {pus:5.2f} µs -> {us / pus:4.2f}x Pinocchio's time")
+    for B, rows in runs.items():
+        r = np.array(rows)
+        print(f"  B = {B:6d} over {len(rows)} rounds: batched/loop best {r[:, 2].max():.1f}x, median "
+              f"{np.median(r[:, 2]):.1f}x; one configuration best {r[:, 3].min():.2f}x, median "
+              f"{np.median(r[:, 3]):.2f}x Pinocchio's time")
+    return runs
 
 
-def growth(clock: str, quick: bool, markdown: bool, rng) -> None:
+def growth(clock: str, quick: bool, rng) -> list:
     """Cost growth with the number of joints, ratectl beside Pinocchio (ratios)."""
     B = 10_000
     rows = []
@@ -126,12 +143,113 @@ def growth(clock: str, quick: bool, markdown: bool, rng) -> None:
         rows.append((n, us / pus, rate / prate, us, pus, rate, prate))
         print(f"{n:6d} {us / pus:25.2f} {rate / prate:32.1f} {us:11.2f} {pus:7.2f} "
               f"{rate / 1e6:12.2f} {prate / 1e6:13.3f}")
-    if markdown:
-        print("\n| joints | one configuration: ratectl / Pinocchio time | batched (B = 10⁴): "
-              "ratectl / Pinocchio-loop speed |")
-        print("|---|---|---|")
-        for n, r1, r2, *_ in rows:
-            print(f"| {n} | {r1:.2f}× | {r2:.1f}× |")
+    return rows
+
+
+def markdown(runs: dict, rows: list, clock: str) -> str:
+    """The measured tables as the markdown block of docs/benchmarks.md."""
+    import datetime
+    import platform
+
+    import pinocchio
+
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "n/a"
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    out = [f"Measured by `benchmarks/bench_kinematics.py` on "
+           f"{datetime.date.today().isoformat()} ({cpu}, {os.cpu_count()} cores, load average "
+           f"{load} at the end; numpy {np.__version__}, pinocchio {pinocchio.__version__}; "
+           f"{clock} clock):", "",
+           "| UR5e `fk_jacobian` | rounds | ratectl | Pinocchio | ratio: best | ratio: median |",
+           "|---|---|---|---|---|---|"]
+    for B, rs in runs.items():
+        r = np.array(rs)
+        out.append(f"| batched, B = {B:,} [M configurations/s] | {len(rs)} | {r[:, 0].min():.2f}–"
+                   f"{r[:, 0].max():.2f} | {r[:, 1].min():.2f}–{r[:, 1].max():.2f} (loop) | "
+                   f"{r[:, 2].max():.1f} × the loop | {np.median(r[:, 2]):.1f} × the loop |")
+    r = np.array([x for rs in runs.values() for x in rs])
+    out.append(f"| one configuration [time ratio] | {len(r)} | | | {r[:, 3].min():.2f} × "
+               f"Pinocchio's time | {np.median(r[:, 3]):.2f} × Pinocchio's time |")
+    out += ["", "Cost growth with the number of joints — random standard-DH chains with random "
+            "twists and offsets (seeded), the same chain built in Pinocchio from its joint "
+            "placements:", "",
+            "| joints | one configuration: ratectl / Pinocchio time | batched (B = 10⁴): "
+            "ratectl / Pinocchio-loop speed | ratectl batched [M/s] | Pinocchio loop [M/s] |",
+            "|---|---|---|---|---|"]
+    for n, r1, r2, _us, _pus, rate, prate in rows:
+        out.append(f"| {n} | {r1:.2f}× | {r2:.1f}× | {rate / 1e6:.2f} | {prate / 1e6:.2f} |")
+    return "\n".join(out) + "\n"
+
+
+DOCS_BEGIN = "<!-- bench_kinematics.py --update-docs: begin -->"
+DOCS_END = "<!-- bench_kinematics.py --update-docs: end -->"
+
+
+def update_docs(text: str, path: str) -> None:
+    """Replace the block between the markers in ``path`` (docs/benchmarks.md) with ``text``."""
+    with open(path, encoding="utf-8") as f:
+        doc = f.read()
+    head, sep, rest = doc.partition(DOCS_BEGIN)
+    _old, sep2, tail = rest.partition(DOCS_END)
+    if not sep or not sep2:
+        raise SystemExit(f"{path} has no {DOCS_BEGIN} … {DOCS_END} block")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(f"{head}{DOCS_BEGIN}\n{text}{DOCS_END}{tail}")
+    print(f"wrote the tables into {path}")
+
+
+def profile(clock: str) -> None:
+    """Where the batched UR5e fk_jacobian time goes, ns per configuration (B = 10^5), and
+    throughput at B = 10^4, 10^5, 10^6 (chunking against cache sizes)."""
+    from ratectl.kinematics import codegen, forward
+
+    chain = rc.robots.ur5e()
+    rng = np.random.default_rng(1)
+    print("\nUR5e batched fk_jacobian throughput by batch size (best of 3 medians):")
+    for B in (10_000, 100_000, 1_000_000):
+        qs = chain.random_q(B, rng=rng)
+        best = min(median_s(lambda: chain.fk_jacobian(qs), repeat=3 if B > 100_000 else 7, clock=clock)
+                   for _ in range(3))
+        print(f"  B = {B:9,d}: {B / best / 1e6:6.2f} M configurations/s, {best / B * 1e9:5.0f} ns each")
+    B = 100_000
+    qs = chain.random_q(B, rng=rng)
+    kern = forward.build_kernel(chain, ("fkjac", True))
+    m = forward._chunk(52, kern.__nwork__)
+    W = np.empty((kern.__nwork__, m))
+    kern.__prepare__(W)
+    rows_of_W = tuple(W)
+    qT, T, J, chunks = qs[:m].T, np.empty((B, 16)), np.empty((B, 36)), B // m
+
+    def kernel_only():
+        for _ in range(chunks):
+            kern(qT, W, rows_of_W)
+
+    def sincos_only():
+        for _ in range(chunks):
+            codegen.sincos(qT, None, W[52:], 6)
+
+    def copies_only():
+        for i in range(chunks):
+            np.copyto(T[i * m:(i + 1) * m], W[:16].T)
+            np.copyto(J[i * m:(i + 1) * m], W[16:52].T)
+
+    rows = []
+    for _ in range(5):
+        total = median_s(lambda: chain.fk_jacobian(qs), clock=clock) / B
+        kern_s, sc_s, cp_s = (median_s(f, clock=clock) / (chunks * m)
+                              for f in (kernel_only, sincos_only, copies_only))
+        rows.append((total, sc_s, kern_s - sc_s, cp_s, total - kern_s - cp_s))
+    r = np.median(np.array(rows), axis=0) * 1e9
+    lines = kern.__source__.split("def kernel")[1].count("\n") - 3
+    print(f"where the time goes at B = {B:,} ({m}-column chunks, {kern.__nwork__} work rows, "
+          f"{lines} kernel lines), ns per configuration, median of 5:")
+    for name, v in zip(("total", "sin/cos (sincos)", "kernel arithmetic", "transposing copies into the "
+                        "result", "rest (checks, allocation, chunk loop)"), r, strict=True):
+        print(f"  {name:40s} {v:6.1f}")
 
 
 def bench_pinocchio(chain, q, qs):
@@ -216,8 +334,17 @@ def main(argv=None) -> None:
     ap.add_argument("--arms", default=",".join(k for k in rc.robots.BUILTIN if k != "planar2r"))
     ap.add_argument("--clock", choices=("cpu", "wall"), default="cpu",
                     help="cpu: this thread's CPU time (default, steadier on a shared machine)")
-    ap.add_argument("--markdown", action="store_true", help="print the growth table as markdown")
+    ap.add_argument("--markdown", action="store_true", help="print the Pinocchio tables as markdown")
+    ap.add_argument("--update-docs", action="store_true",
+                    help="write the Pinocchio tables into docs/benchmarks.md (implies --markdown)")
+    ap.add_argument("--rounds", type=int, default=5,
+                    help="repetitions of the UR5e comparison (best and median ratios)")
+    ap.add_argument("--profile", action="store_true",
+                    help="only: where the batched UR5e time goes, and throughput at B = 1e4..1e6")
     args = ap.parse_args(argv)
+    if args.profile:
+        profile(args.clock)
+        return
     rng = np.random.default_rng(0)
     print(f"ratectl {rc.__version__}, numpy {np.__version__}, clock {args.clock}")
     try:
@@ -227,8 +354,13 @@ def main(argv=None) -> None:
         have_pin = False
         print("pinocchio not installed: no ratios")
     if have_pin:
-        headline(args.clock, args.quick, rng)
-        growth(args.clock, args.quick, args.markdown, rng)
+        runs = headline(args.clock, args.quick, rng, max(1, args.rounds))
+        rows = growth(args.clock, args.quick, rng)
+        if args.markdown or args.update_docs:
+            text = markdown(runs, rows, args.clock)
+            print("\n" + text)
+            if args.update_docs:
+                update_docs(text, os.path.join(os.path.dirname(__file__), "..", "docs", "benchmarks.md"))
     print(f"{'arm':14s} {'fk_jacobian µs':>15s} {'fk+jacobian µs':>15s} "
           f"{'batch 1e4 /s':>13s} {'batch 1e5 /s':>13s}")
     sizes = (10_000,) if args.quick else (10_000, 100_000)

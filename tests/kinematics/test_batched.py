@@ -127,6 +127,7 @@ def test_non_contiguous_and_integer_inputs(rng):
     assert np.allclose(Jq[1], arm.jacobian(np.array([0.0, 1, 2, 0, 1, 2])), atol=TOL, rtol=0)
 
 
+@pytest.mark.skipif(forward.KERNEL_MODE == "reference", reason="reference kernels are not generated")
 def test_batched_kernel_source_is_registered_with_linecache():
     arm = rc.robots.ur5e()
     arm.fk_jacobian(arm.random_q(3))
@@ -154,3 +155,38 @@ def test_reference_mode_gives_the_same_batched_results(tmp_path):
     want = np.concatenate([T.reshape(15, -1), J.reshape(15, -1), J.reshape(15, -1),
                            T.reshape(15, -1)], axis=1)
     assert np.max(np.abs(got - want)) < 1e-12
+
+
+def test_sign_rewrites_of_the_batched_kernels_are_exact():
+    """`_signed` rewrites an expression to compute ±its value from operands stored with either
+    sign; every rewrite must give the same bits (up to the sign of zero) as negating the
+    value, for random expressions of the generated kinds and random operand values."""
+    import ast
+
+    from ratectl.kinematics.codegen import _signed
+
+    rng = np.random.default_rng(21)
+    names = ["a", "b", "c", "d"]
+    forms = ["a*b + c*d", "a*b - c*d", "a - b*0.425", "0.1625 + a*-0.3922", "a*b*0.5 - c",
+             "a - b", "a + b", "a*b", "a*0.0997", "a*b + c*d*-0.25 - d"]
+    for text in forms:
+        tree = ast.parse(text, mode="eval").body
+        for _ in range(40):
+            stored = {n: int(rng.choice([-1, 1])) for n in names}
+            values = {n: float(rng.normal() * 10.0 ** rng.integers(-3, 3)) for n in names}
+            want_value = eval(text, {}, values)  # noqa: S307 - test-only, fixed strings
+            for want in (1, -1):
+                rewritten = _signed(tree, want, stored)
+                if rewritten is None:
+                    continue
+                env = {n: stored[n] * v for n, v in values.items()}
+                got = eval(compile(ast.Expression(ast.fix_missing_locations(rewritten)), "<t>", "eval"),
+                           {}, env)
+                assert got == want * want_value, (text, want, stored, ast.unparse(rewritten))
+            assert _signed(tree, 1, stored) is not None or _signed(tree, -1, stored) is not None
+
+
+@pytest.mark.parametrize("nwork", [10, 55, 94, 172, 328, 2000])
+def test_chunks_keep_work_rows_an_odd_number_of_cache_lines_apart(nwork):
+    m = forward._chunk(52, nwork)
+    assert m % 16 == 8 and m * 8 * nwork <= max(forward._CHUNK_BYTES, 8 * nwork * (forward._CHUNK_MIN + 8))
