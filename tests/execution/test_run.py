@@ -91,7 +91,9 @@ def test_watchdog_halts_within_timeout_plus_one_period(arm):
 
 def test_dropped_samples_are_held_and_counted(arm):
     drv = ScriptedDriver(arm, Q0, drop=0.3, seed=3)
-    ex = rc.run(drv, path=_line(arm, Q0, [0.0, 0.03, 0.0]), rate_hz=500.0, timeout=0.1)
+    # the watchdog is not what this test checks: a generous one, so a stall of a loaded CI machine
+    # (305 ms was seen) does not trip it
+    ex = rc.run(drv, path=_line(arm, Q0, [0.0, 0.03, 0.0]), rate_hz=500.0, timeout=1.0)
     assert ex.completed, ex.message
     stale = int(np.count_nonzero(~ex.fresh))
     assert 0.15 * len(ex.fresh) < stale < 0.45 * len(ex.fresh)
