@@ -34,6 +34,7 @@ errors and raise `InputError` at once.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -45,6 +46,7 @@ from ..model.limits import (
     Limits,
     braking_speed,
     braking_speed_discrete,
+    speed_toward_limit,
     stopping_distance,
 )
 from ..spatial import pose_error_into, rigid_transform_defect
@@ -162,11 +164,14 @@ class ResolvedRateController:
             # an absent acceleration limit: a joint can stop in one period, so its position
             # limit is enforced by the velocity limit alone (the braking speed is d/dt)
             self._amax_f = np.where(np.isfinite(lim.amax), lim.amax, _NO_AMAX)
+            self._two_over_a = 2.0 / self._amax_f
+            self._inv_amax_f = 1.0 / self._amax_f
             self._plo = np.where(np.isfinite(lim.lower), lim.lower, -big)
             self._phi = np.where(np.isfinite(lim.upper), lim.upper, big)
             vf = np.where(np.isfinite(lim.vmax), lim.vmax, big)
             # distance within which a joint at full speed may need to brake (per side, so a
-            # one-sided limit is watched too): v²/(2a), 0 without an acceleration limit
+            # one-sided limit is watched too): v²/(2a), 0 without an acceleration limit; the
+            # gate adds one period at vmax (braking_speed_any_dt reaches vmax there)
             fin = np.isfinite(lim.vmax) & np.isfinite(lim.amax)
             vfin = np.where(fin, vf, 0.0)
             self._pbrake = np.where(fin, vfin**2 / (2.0 * np.where(fin, self._amax_f, 1.0)),
@@ -507,6 +512,8 @@ class ResolvedRateController:
             # would move q̇ off its optimum and could break its extra rows
             cyc.qd, cyc.scale = self._report_solver_limits(cyc.res, cyc.qd, cyc.smin, cyc.flags,
                                                            cyc.reasons, cyc.scale)
+            if self._has_p:
+                self._report_solver_recovery(cyc, q, dt)
         else:
             self._limit_velocity(cyc)
         if "velocity-scaled" in cyc.flags:
@@ -569,19 +576,18 @@ class ResolvedRateController:
         return bool(((self._phi - q) < room).any() or ((q - self._plo) < room).any())
 
     def _limit_position(self, cyc: _Cycle, q, dt) -> None:
-        """Clip each joint's q̇ to the speed from which it can still stop before its limits."""
+        """Clip each joint's q̇ to the speed from which it can still stop before its limits
+        (`speed_toward_limit`: the braking bound `braking_speed_any_dt`, valid when dt
+        changes between cycles; beyond a limit, back into the range within vmax and amax,
+        never further out). The position side wins over the acceleration limit: a joint
+        whose measured q jumped inside its stopping distance brakes harder than amax for
+        one period (status ``limit-recovery``) rather than run past its limit."""
         adt = self._amax_f * dt
-        inv_adt2, inv_dt = 1.0 / (adt * dt), 1.0 / dt
-        # the speed from which the joint still stops before the limit, braking by at most
-        # amax·dt per period (braking_speed_discrete: the discrete √(2·amax·d), ≥ d/dt; with
-        # no acceleration limit exactly d/dt, the velocity limit then bounds the approach)
-        hi_v = braking_speed_discrete(self._phi - q, adt, inv_adt2, inv_dt)
-        lo_v = -braking_speed_discrete(q - self._plo, adt, inv_adt2, inv_dt)
-        # a joint found beyond a limit (a disturbance, or a start outside the range) is
-        # brought back no faster than vmax and no harder than amax from the previous q̇
-        hi_v = np.maximum(hi_v, np.maximum(-self._vf, self._qd - adt))
-        lo_v = np.minimum(lo_v, np.minimum(self._vf, self._qd + adt))
-        clipped = np.clip(cyc.qd, lo_v, hi_v)
+        hi_v = speed_toward_limit(self._phi - q, self._qd, dt=dt, two_over_a=self._two_over_a, adt=adt,
+                                  vmax=self._vf)
+        lo_v = -speed_toward_limit(q - self._plo, -self._qd, dt=dt, two_over_a=self._two_over_a, adt=adt,
+                                   vmax=self._vf)
+        clipped = np.minimum(np.maximum(cyc.qd, lo_v), hi_v)
         changed = clipped != cyc.qd
         if changed.any():
             joints = np.flatnonzero(changed)
@@ -589,6 +595,46 @@ class ResolvedRateController:
             cyc.flags.insert(0, "joint-limit")
             cyc.reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
             cyc.active.append("position")
+            hard = None
+            ratio = 0.0
+            if self.filter is None:  # (with smoothing the filter then keeps amax and jmax)
+                step = np.abs(clipped - self._qd) * self._inv_amax_f / dt
+                hard = changed & (step > 1.0 + 1e-9)
+                ratio = float(step.max())
+            self._report_limit_recovery(cyc, q, hard, ratio)
+
+    def _report_solver_recovery(self, cyc: _Cycle, q, dt) -> None:
+        """``limit-recovery`` for a limit-enforcing solver: its box resolved a conflict of
+        the acceleration bound against the position bound (``info["conflicts"]``, the
+        position side won), or a joint is measured beyond a position limit."""
+        info = cyc.res.info
+        conflicts = info.get("conflicts", ()) if isinstance(info, Mapping) else ()
+        if not conflicts and not ((q > self._phi).any() or (q < self._plo).any()):
+            return
+        hard = np.zeros(self._n, dtype=bool)
+        for joint, kinds in conflicts:
+            if "acceleration" in kinds:
+                hard[joint] = True
+        step = np.abs(cyc.qd - self._qd) * self._inv_amax_f / dt
+        self._report_limit_recovery(cyc, q, hard, float(step[hard].max()) if hard.any() else 0.0)
+
+    def _report_limit_recovery(self, cyc: _Cycle, q, hard: np.ndarray | None, ratio: float) -> None:
+        """Status ``limit-recovery`` (with the reason) for the joints ``hard`` (bool mask) whose
+        position bound changed q̇ by more than amax·dt (``ratio`` = the largest |Δq̇|/(amax·dt)),
+        and for joints measured beyond a position limit."""
+        out = (q > self._phi) | (q < self._plo)
+        some_hard = hard is not None and bool(hard.any())
+        if not (some_hard or out.any()):
+            return
+        cyc.flags.insert(0, "limit-recovery")
+        if some_hard:
+            assert hard is not None
+            cyc.reasons.insert(0, f"joint(s) {np.flatnonzero(hard).tolist()} measured within the "
+                               "stopping distance of a position limit (or beyond it): braking at "
+                               f"{ratio:.3g}× amax to stay inside the range")
+        if out.any():
+            cyc.reasons.insert(0, f"joint(s) {np.flatnonzero(out).tolist()} measured beyond a position "
+                               "limit: commanded back into the range, never further out")
 
     # --- stage 5: smoothing and integration
     def _smooth(self, cyc: _Cycle, q, dt, qdd_ff) -> Command | None:
@@ -606,10 +652,66 @@ class ResolvedRateController:
                 cyc.q_next, cyc.qd, cyc.qdd = self.filter.update(q, cyc.qd, qdd_ff, independent=cyc.braking)
             except RatectlError as err:
                 return self._halt(q, dt, f"smoothing failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
+            if self._has_p:
+                self._smoothed_limit_recovery(cyc, q, dt)
         else:
             cyc.q_next = q + cyc.qd * dt
             cyc.qdd = (cyc.qd - self._qd) / dt
         return None
+
+    def _smoothed_limit_recovery(self, cyc: _Cycle, q, dt) -> None:
+        """The position side wins over the filter's jerk and acceleration limits: a joint
+        whose smoothed motion would end this period beyond a position limit (further out
+        than it is measured) — possible only after a fault, a measured q that jumped inside
+        the jerk-limited stopping distance — is commanded, for this period, the largest
+        speed that still leaves room for the filter's own jerk-limited stop from rest
+        acceleration afterwards (≤ `speed_toward_limit`; beyond a limit: back into the
+        range, never further out); its filter state is set to that velocity with the
+        period's mean acceleration clipped to ±amax (``Command.qdd``), and the status is
+        ``limit-recovery``. The later periods are then jerk-limited again."""
+        q_next = cyc.q_next
+        tol = 1e-12 * (1.0 + np.abs(q))
+        out = (q_next > np.maximum(self._phi, q) + tol) | (q_next < np.minimum(self._plo, q) - tol)
+        f = self.filter
+        assert f is not None
+        if cyc.braking is not None:  # near a limit: is a joint already inside its stopping distance?
+            out |= self._inside_stopping_distance(self._phi - q, self._qd, self._qdd, f)
+            out |= self._inside_stopping_distance(q - self._plo, -self._qd, -self._qdd, f)
+        if not out.any():
+            return
+        adt = self._amax_f * dt
+        bounds = []
+        for room, v_prev in ((self._phi - q, self._qd), (q - self._plo, -self._qd)):
+            b = speed_toward_limit(room, v_prev, dt=dt, two_over_a=self._two_over_a, adt=adt, vmax=self._vf)
+            # after this period the filter brakes jerk-limited from (b, 0): that stop must fit
+            rest = np.maximum(room - np.maximum(b, 0.0) * dt, 0.0)
+            bounds.append(np.where(room >= 0.0, np.minimum(b, braking_speed(rest, f.amax, f.jmax)), b))
+        qd = np.where(out, np.minimum(np.maximum(cyc.qd, -bounds[1]), bounds[0]), cyc.qd)
+        cyc.q_next = np.where(out, q + qd * dt, q_next)
+        fd = (qd - self._qd) / dt
+        ratio = float(np.max(np.abs(fd[out]) * self._inv_amax_f[out]))
+        # the filter goes on from there, at the period's mean acceleration clipped to ±amax
+        # (braking at most amax: its jerk-limited stop from that state fits the room left)
+        cyc.qdd = np.where(out, np.minimum(np.maximum(fd, -f.amax), f.amax), cyc.qdd)
+        cyc.qd = qd
+        f.reset(qd, cyc.qdd)
+        joints = np.flatnonzero(out).tolist()
+        cyc.flags.insert(0, "limit-recovery")
+        cyc.reasons.insert(0, f"joint(s) {joints} measured inside their jerk-limited stopping distance "
+                           "of a position limit (or beyond it): smoothing overridden for one period, "
+                           f"braking at {ratio:.3g}× amax to stay inside the range (never further out)")
+        if "position" not in cyc.active:
+            cyc.active.append("position")
+
+    @staticmethod
+    def _inside_stopping_distance(room, v, a, f) -> np.ndarray:
+        """Joints (mask) that can no longer stop within ``room`` ≥ 0 from the filter state
+        (v, a) toward the limit: the exact distance of the time-optimal jerk-limited stop
+        (`stopping_distance` with ``exact_when_braking``, what Ruckig does when told to stop)
+        exceeds it. The guard never lets that happen (it starts braking while the stop still
+        fits): only a fault does."""
+        need = stopping_distance(v, a, f.amax, f.jmax, exact_when_braking=True)
+        return (room >= 0.0) & (v > 0.0) & (need > room * (1.0 + 1e-9) + 1e-12)
 
     # --- stage 6: the command
     def _command(self, cyc: _Cycle, q, dt) -> Command:
@@ -706,7 +808,8 @@ class ResolvedRateController:
         if "acceleration" in kinds:
             flags.append("acceleration-limited")
             reasons.append(f"QP: joint(s) {joints} at the acceleration bound")
-        extra = res.info.get("extra_active") if isinstance(res.info, dict) else None
+        # (info is a read-only Mapping, not a dict)
+        extra = res.info.get("extra_active") if isinstance(res.info, Mapping) else None
         if extra is not None and np.any(extra):
             reasons.append(f"{int(np.count_nonzero(extra))} extra constraint row(s) active "
                            "(e.g. collision avoidance)")
