@@ -315,11 +315,12 @@ def test_malformed_qp_options_are_input_errors(kw):
 
 
 @pytest.mark.skipif(not HAVE_DAQP, reason="daqp not installed")
-def test_qp_with_extra_rows_is_feasible_and_matches_daqp(fuzz):
+@pytest.mark.parametrize("ill", [False, True], ids=["plain", "ill-conditioned"])
+def test_qp_with_extra_rows_is_feasible_and_matches_daqp(fuzz, ill):
     @fuzz.settings(20)
     @given(seed=st.integers(0, 2**32 - 1))
     def prop(seed):
-        opts, J, xi, lim, q, qd_prev, dt = _problem(seed)
+        opts, J, xi, lim, q, qd_prev, dt = _problem(seed, ill=ill)
         r = np.random.default_rng(seed + 7)
         n = J.shape[1]
         k = int(r.integers(1, 4))
@@ -332,19 +333,56 @@ def test_qp_with_extra_rows_is_feasible_and_matches_daqp(fuzz):
             ref = QP(backend="daqp", **opts).solve(J, xi, **kw)
         except RatectlError:
             return  # the box and the rows have no common point (the box may exclude 0)
-        try:
-            a = QP(**opts).solve(J, xi, **kw)
-        except rc.errors.SolverError:
-            # allowed (a ratectl error, the controller halts), but counted: OSQP, its cold
-            # retry and the dual fallback all failed on a feasible, ill-conditioned problem
-            fuzz.count("qp_extra_rows_solver_error")
-            return
+        a = QP(**opts).solve(J, xi, **kw)  # feasible: an answer, never a SolverError
         assert np.all(G @ a.qd <= h + 1e-6 * (1 + np.abs(h)))
         assert _in_box(a.qd, vb.lower, vb.upper)
         P, bb = _objective_matrices(opts, J, xi)
         fa = 0.5 * a.qd @ P @ a.qd - bb @ a.qd
         fr = 0.5 * ref.qd @ P @ ref.qd - bb @ ref.qd
         assert fa <= fr + 1e-7 * (1.0 + abs(fr) + float(np.abs(P).max()) + float(np.abs(bb).max()))
+
+    prop()
+
+
+def _degenerate_rows_problem(seed):
+    """A small QP with degenerate constraints (a fixed joint lo = hi, a repeated row, rows
+    through one point) and an ill-conditioned P: (P, b, lo, hi, G, h)."""
+    r = np.random.default_rng(seed)
+    n = int(r.integers(1, 6))
+    A = r.standard_normal((n + 2, n)) * 10.0 ** r.uniform(-2, 3, n)
+    P = A.T @ A + 10.0 ** r.uniform(-8, 0) * np.eye(n)
+    b = r.standard_normal(n) * 10.0 ** r.uniform(-2, 3)
+    lo, hi = -r.uniform(0, 2, n), r.uniform(0, 2, n)
+    fixed = r.random(n) < 0.3
+    lo = np.where(fixed, hi, lo)
+    G = r.standard_normal((int(r.integers(1, 4)), n))
+    if r.random() < 0.5:
+        G = np.vstack([G, G[:1]])  # a repeated row
+    x_in = lo + (hi - lo) * r.random(n)
+    h = G @ x_in + r.uniform(0.0, 0.3, G.shape[0]) * (r.random(G.shape[0]) < 0.6)
+    return P, b, lo, hi, G, h
+
+
+@pytest.mark.skipif(not HAVE_DAQP, reason="daqp not installed")
+def test_primal_active_set_solver_matches_daqp_on_degenerate_rows(fuzz):
+    """The QP's last resort (`qp_primal_active_set`) is exact where OSQP and the dual give up:
+    fixed joints, repeated rows, rows through one point, P with condition up to 1e13."""
+    from ratectl.solvers.qp.active_set import qp_primal_active_set
+
+    @fuzz.settings(30)
+    @given(seed=st.integers(0, 2**32 - 1))
+    def prop(seed):
+        P, b, lo, hi, G, h = _degenerate_rows_problem(seed)
+        fuzz.count("qp_primal_active_set")
+        x = qp_primal_active_set(P, b, lo, hi, G, h)
+        assert x is not None  # feasible by construction
+        assert np.all(G @ x <= h + 1e-9 * (1 + np.abs(h))) and _in_box(x, lo, hi, rel=1e-9)
+        ref = qpsolvers.solve_qp(P, -b, G, h, lb=lo, ub=hi, solver="daqp")
+        if ref is None:
+            return
+        fx, fr = 0.5 * x @ P @ x - b @ x, 0.5 * ref @ P @ ref - b @ ref
+        size = float(np.abs(P).max()) * (1 + float(np.abs(ref).max())) ** 2
+        assert fx <= fr + 1e-9 * (1.0 + abs(fr) + size)
 
     prop()
 

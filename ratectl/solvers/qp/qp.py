@@ -29,6 +29,7 @@ from .active_set import (
     box_qp_exact,
     kkt_violation,
     polish_general,
+    qp_primal_active_set,
     qp_via_dual,
 )
 from .bounds import _BIG, _BoundCache, _box, _sources, _vec
@@ -410,6 +411,11 @@ class QP(Solver):
         qd = qp_via_dual(P, b, lo_, hi_, G, h)  # the exact answer through the dual (a box QP)
         if qd is not None:
             return qd, "exact-dual", -1, True, None
+        # degenerate or ill-conditioned: the primal active-set method from a feasible point
+        # (its termination is the KKT certificate); None only when the rows are infeasible
+        qd = qp_primal_active_set(P, b, lo_, hi_, G, h)
+        if qd is not None:
+            return qd, "exact-primal", -1, True, None
         return None
 
     def _bound_sources(self, qd: np.ndarray, held: Any, lo: np.ndarray | None, hi: np.ndarray | None,
