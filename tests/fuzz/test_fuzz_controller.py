@@ -46,7 +46,7 @@ case = st.tuples(st.sampled_from(ARMS), st.sampled_from(sorted(SOLVERS)), st.boo
                  st.integers(0, 2**32 - 1))
 
 
-def test_changing_dt_next_to_position_limits_holds_every_limit(fuzz):
+def test_changing_dt_next_to_position_limits_holds_every_limit(fuzz, capfd):
     @fuzz.settings(10)
     @given(c=case)
     def prop(c):
@@ -76,9 +76,10 @@ def test_changing_dt_next_to_position_limits_holds_every_limit(fuzz):
             qd_prev = qd
 
     prop()
+    assert capfd.readouterr().out == ""  # nothing the step calls writes to stdout
 
 
-def test_measurement_jumps_never_command_motion_further_out(fuzz):
+def test_measurement_jumps_never_command_motion_further_out(fuzz, capfd):
     @fuzz.settings(10)
     @given(c=case)
     def prop(c):
@@ -118,6 +119,7 @@ def test_measurement_jumps_never_command_motion_further_out(fuzz):
         fuzz.count("fault_measurement_jump", jumps)
 
     prop()
+    assert capfd.readouterr().out == ""
 
 
 def test_a_jump_inside_the_stopping_distance_brakes_at_once_and_says_so():

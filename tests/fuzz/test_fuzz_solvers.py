@@ -476,3 +476,28 @@ def test_exact_dual_solver_matches_daqp_with_extra_rows(fuzz):
         assert fx <= fr + 1e-6 * (1.0 + abs(fr) + float(np.abs(P).max()) + float(np.abs(bb).max()))
 
     prop()
+
+
+def test_no_qp_path_writes_to_stdout(fuzz, capfd):
+    """OSQP 1.x prints "Polishing not needed" from C (fd 1) whenever its polish finds no
+    active bound, verbose or not; it used to reach the terminal during control steps (an
+    interior optimum with the shortcut off, most extra-rows problems). Every path of the
+    QP — box only, extra rows, feed-forward, shortcut off, retries — is silent."""
+    lim = Limits(lower=[-1.0, -1.0], upper=[1.0, 1.0], vmax=[2.0, 2.0], amax=[10.0, 10.0])
+    QP(shortcut=False).solve(np.eye(2), [0.1, 0.1], limits=lim, q=np.zeros(2), dt=0.01)  # interior
+    fuzz.count("qp")
+    n_calls = fuzz.loops(60)
+    for seed in range(n_calls):
+        opts, J, xi, lim, q, qd_prev, dt = _problem(seed)
+        r = np.random.default_rng(seed + 7)
+        G = r.standard_normal((int(r.integers(1, 4)), J.shape[1]))
+        h = r.uniform(0.0, 0.5, G.shape[0])
+        for kw in ({"extra_inequalities": (G, h)}, {}):
+            for shortcut in (True, False):
+                fuzz.count("qp")
+                try:
+                    QP(shortcut=shortcut, **opts).solve(J, xi, limits=lim, q=q, qd_prev=qd_prev, dt=dt, **kw)
+                except RatectlError:
+                    pass
+    out, _ = capfd.readouterr()
+    assert out == "", out[:200]
