@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..arrays import read_only
 from ..errors import InputError
 
 __all__ = ["Limits", "braking_speed_any_dt", "speed_toward_limit", "braking_speed_discrete",
@@ -52,7 +53,7 @@ class Limits:
             try:
                 if np.iscomplexobj(getattr(self, name)):
                     raise TypeError("complex")
-                a = np.array(getattr(self, name), dtype=float)
+                a = read_only(getattr(self, name))
             except (TypeError, ValueError):
                 raise InputError(f"Limits.{name} must be an array of numbers, got "
                                  f"{getattr(self, name)!r}", argument=name,
@@ -60,7 +61,6 @@ class Limits:
             if a.ndim != 1:
                 raise InputError(f"Limits.{name} must be a 1-D array (one value per joint), got "
                                  f"shape {a.shape}", argument=name, value=a)
-            a.setflags(write=False)
             object.__setattr__(self, name, a)
         if not (self.lower.shape == self.upper.shape == self.vmax.shape == self.amax.shape):
             raise InputError("Limits.lower, upper, vmax and amax must have the same length",
