@@ -13,8 +13,10 @@ a one-DOF Ruckig profile on the progress ‖e‖ gives the speed and the acceler
 filter then follows without lag), and applies the limits in this order: velocity (uniform
 scaling, which keeps the direction of motion), acceleration (the change of q̇ per cycle is
 scaled to fit amax·dt), joint position (each joint may only move as fast as it can still
-stop before its limit at amax in whole periods, ``braking_speed_discrete``; without an
-acceleration limit that is d/dt, so the velocity limit alone enforces the range). A solver
+stop before its limit at amax whatever the later periods are, ``braking_speed_any_dt``;
+without an acceleration limit that is d/dt, so the velocity limit alone enforces the
+range; after a fault — a measured q inside the stopping distance or beyond a limit — the
+position side wins over amax, status ``limit-recovery``). A solver
 that enforces the limits itself (the QP, ``enforces_limits = True``) is not limited again:
 its bounds and any extra rows (collision limits) are kept as solved and only reported.
 Then the controller optionally smooths the result with a Ruckig velocity filter
