@@ -166,8 +166,9 @@ class ResolvedRateController:
             # an absent acceleration limit: a joint can stop in one period, so its position
             # limit is enforced by the velocity limit alone (the braking speed is d/dt)
             self._amax_f = np.where(np.isfinite(lim.amax), lim.amax, _NO_AMAX)
-            self._two_over_a = 2.0 / self._amax_f
             self._inv_amax_f = 1.0 / self._amax_f
+            self._two_over_a2 = np.concatenate([2.0 / self._amax_f, 2.0 / self._amax_f])
+            self._amax_f2 = np.concatenate([self._amax_f, self._amax_f])
             self._plo = np.where(np.isfinite(lim.lower), lim.lower, -big)
             self._phi = np.where(np.isfinite(lim.upper), lim.upper, big)
             vf = np.where(np.isfinite(lim.vmax), lim.vmax, big)
@@ -179,6 +180,7 @@ class ResolvedRateController:
             self._pbrake = np.where(fin, vfin**2 / (2.0 * np.where(fin, self._amax_f, 1.0)),
                                     np.where(np.isfinite(lim.vmax), 0.0, big))
             self._vf = vf
+            self._vf2 = np.concatenate([vf, vf])
             self._proom = None
             self._proom_dt = None
         else:
@@ -584,26 +586,32 @@ class ResolvedRateController:
         never further out). The position side wins over the acceleration limit: a joint
         whose measured q jumped inside its stopping distance brakes harder than amax for
         one period (status ``limit-recovery``) rather than run past its limit."""
-        adt = self._amax_f * dt
-        hi_v = speed_toward_limit(self._phi - q, self._qd, dt=dt, two_over_a=self._two_over_a, adt=adt,
-                                  vmax=self._vf)
-        lo_v = -speed_toward_limit(q - self._plo, -self._qd, dt=dt, two_over_a=self._two_over_a, adt=adt,
-                                   vmax=self._vf)
+        hi_v, lo_v = self._position_box(q, dt)
         clipped = np.minimum(np.maximum(cyc.qd, lo_v), hi_v)
         changed = clipped != cyc.qd
+        hard = None
+        ratio = 0.0
         if changed.any():
             joints = np.flatnonzero(changed)
             cyc.qd = clipped
             cyc.flags.insert(0, "joint-limit")
             cyc.reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
             cyc.active.append("position")
-            hard = None
-            ratio = 0.0
             if self.filter is None:  # (with smoothing the filter then keeps amax and jmax)
                 step = np.abs(clipped - self._qd) * self._inv_amax_f / dt
                 hard = changed & (step > 1.0 + 1e-9)
                 ratio = float(step.max())
-            self._report_limit_recovery(cyc, q, hard, ratio)
+        self._report_limit_recovery(cyc, q, hard, ratio)  # also a joint measured beyond a limit
+
+    def _position_box(self, q, dt) -> tuple[np.ndarray, np.ndarray]:
+        """(hi, lo): the position side of each joint's velocity box, `speed_toward_limit` toward
+        the upper limit and (mirrored) the lower one, from the previous q̇; both sides in one
+        stacked call."""
+        n = self._n
+        b = speed_toward_limit(np.concatenate([self._phi - q, q - self._plo]),
+                               np.concatenate([self._qd, -self._qd]), dt=dt, two_over_a=self._two_over_a2,
+                               adt=self._amax_f2 * dt, vmax=self._vf2)
+        return b[:n], -b[n:]
 
     def _report_solver_recovery(self, cyc: _Cycle, q, dt) -> None:
         """``limit-recovery`` for a limit-enforcing solver: its box resolved a conflict of
@@ -669,22 +677,23 @@ class ResolvedRateController:
         speed that still leaves room for the filter's own jerk-limited stop from rest
         acceleration afterwards (≤ `speed_toward_limit`; beyond a limit: back into the
         range, never further out); its filter state is set to that velocity with the
-        period's mean acceleration clipped to ±amax (``Command.qdd``), and the status is
-        ``limit-recovery``. The later periods are then jerk-limited again."""
+        period's mean acceleration clipped to ±amax, or 0 where that would speed the joint
+        up (``Command.qdd``), and the status is ``limit-recovery``. The later periods are
+        then jerk-limited again."""
         q_next = cyc.q_next
         tol = 1e-12 * (1.0 + np.abs(q))
         out = (q_next > np.maximum(self._phi, q) + tol) | (q_next < np.minimum(self._plo, q) - tol)
         f = self.filter
         assert f is not None
-        if cyc.braking is not None:  # near a limit: is a joint already inside its stopping distance?
-            out |= self._inside_stopping_distance(self._phi - q, self._qd, self._qdd, f)
-            out |= self._inside_stopping_distance(q - self._plo, -self._qd, -self._qdd, f)
+        if cyc.braking is not None and cyc.braking.any():
+            # a joint the guard brakes: is it already inside its stopping distance? (for the
+            # others even the guard's look-ahead stop fits, so the stop from now fits too)
+            out |= self._inside_stopping_distance(q, f, cyc.braking)
         if not out.any():
             return
-        adt = self._amax_f * dt
         bounds = []
-        for room, v_prev in ((self._phi - q, self._qd), (q - self._plo, -self._qd)):
-            b = speed_toward_limit(room, v_prev, dt=dt, two_over_a=self._two_over_a, adt=adt, vmax=self._vf)
+        hi_b, lo_b = self._position_box(q, dt)
+        for room, b in ((self._phi - q, hi_b), (q - self._plo, -lo_b)):
             # after this period the filter brakes jerk-limited from (b, 0): that stop must fit
             rest = np.maximum(room - np.maximum(b, 0.0) * dt, 0.0)
             bounds.append(np.where(room >= 0.0, np.minimum(b, braking_speed(rest, f.amax, f.jmax)), b))
@@ -692,9 +701,11 @@ class ResolvedRateController:
         cyc.q_next = np.where(out, q + qd * dt, q_next)
         fd = (qd - self._qd) / dt
         ratio = float(np.max(np.abs(fd[out]) * self._inv_amax_f[out]))
-        # the filter goes on from there, at the period's mean acceleration clipped to ±amax
-        # (braking at most amax: its jerk-limited stop from that state fits the room left)
-        cyc.qdd = np.where(out, np.minimum(np.maximum(fd, -f.amax), f.amax), cyc.qdd)
+        # the filter goes on from there, at the period's mean acceleration clipped to ±amax,
+        # or 0 where that would still speed the joint up: its jerk-limited stop from that
+        # state is no longer than from (q̇, 0), which fits the room left
+        acc = np.where(fd * qd > 0.0, 0.0, np.minimum(np.maximum(fd, -f.amax), f.amax))
+        cyc.qdd = np.where(out, acc, cyc.qdd)
         cyc.qd = qd
         f.reset(qd, cyc.qdd)
         joints = np.flatnonzero(out).tolist()
@@ -705,15 +716,30 @@ class ResolvedRateController:
         if "position" not in cyc.active:
             cyc.active.append("position")
 
-    @staticmethod
-    def _inside_stopping_distance(room, v, a, f) -> np.ndarray:
-        """Joints (mask) that can no longer stop within ``room`` ≥ 0 from the filter state
-        (v, a) toward the limit: the exact distance of the time-optimal jerk-limited stop
-        (`stopping_distance` with ``exact_when_braking``, what Ruckig does when told to stop)
-        exceeds it. The guard never lets that happen (it starts braking while the stop still
-        fits): only a fault does."""
-        need = stopping_distance(v, a, f.amax, f.jmax, exact_when_braking=True)
-        return (room >= 0.0) & (v > 0.0) & (need > room * (1.0 + 1e-9) + 1e-12)
+    def _inside_stopping_distance(self, q, f, braking: np.ndarray) -> np.ndarray:
+        """Joints (mask) among ``braking`` that can no longer stop before a position limit
+        from the filter state (q̇, q̈) at the start of the period: the exact distance of the
+        time-optimal jerk-limited stop toward the limit it moves to (`stopping_distance`
+        with ``exact_when_braking``, what Ruckig does when told to stop) exceeds the room.
+        The guard never lets that happen (it starts braking while the stop still fits):
+        only a fault does. The default `stopping_distance` (an over-estimate while braking)
+        screens the joints first; the exact one is computed only for those it flags."""
+        inside = np.zeros(self._n, dtype=bool)
+        i = np.flatnonzero(braking & (self._qd != 0.0))
+        if not i.size:
+            return inside
+        up = self._qd[i] > 0.0  # moving toward the upper limit, else toward the lower one
+        room = np.where(up, self._phi[i] - q[i], q[i] - self._plo[i])
+        v = np.abs(self._qd[i])
+        a = np.where(up, self._qdd[i], -self._qdd[i])
+        A, Jm = f.amax[i], f.jmax[i]
+        limit = room * (1.0 + 1e-9) + 1e-12
+        cand = (room >= 0.0) & (stopping_distance(v, a, A, Jm) > limit)
+        if cand.any():
+            k = np.flatnonzero(cand)
+            cand[k] = stopping_distance(v[k], a[k], A[k], Jm[k], exact_when_braking=True) > limit[k]
+        inside[i] = cand
+        return inside
 
     # --- stage 6: the command
     def _command(self, cyc: _Cycle, q, dt) -> Command:

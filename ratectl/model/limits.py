@@ -160,6 +160,8 @@ def speed_toward_limit(D: np.ndarray, v_prev: np.ndarray | None, *, dt: float, t
       faster than a·dt gets 0 (again harder than amax, reported by the caller).
     """
     b = braking_speed_any_dt(D, dt, two_over_a)
+    if not (np.asarray(D) < 0.0).any():
+        return b
     back = np.maximum(b, -vmax)
     if v_prev is not None:
         back = np.maximum(back, v_prev - adt)

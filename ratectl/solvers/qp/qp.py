@@ -359,10 +359,16 @@ class QP(Solver):
                 qd, status, certified = x2, "exact-active-set", "exact-active-set"
                 held = st2.tolist()
         elif G is not None and h is not None:
-            # extra rows: the exact solution on OSQP's active set, with its KKT certificate
+            # extra rows: the exact solution on OSQP's active set, with its KKT certificate;
+            # when OSQP's active set is not the optimum's (an inaccurate answer), the exact
+            # solvers answer: the dual, then the primal active-set method
             x2 = polish_general(P, b, lo_, hi_, G, h, qd)
             if x2 is not None:
                 qd, certified = x2, "kkt"
+            elif (x2 := qp_via_dual(P, b, lo_, hi_, G, h)) is not None:
+                qd, status, certified = x2, "exact-dual", "exact-dual"
+            elif (x2 := qp_primal_active_set(P, b, lo_, hi_, G, h)) is not None:
+                qd, status, certified = x2, "exact-primal", "exact-primal"
             else:
                 certified = "none"  # feasibility is still checked by solve
         if lo is not None and hi is not None:
