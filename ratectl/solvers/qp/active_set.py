@@ -375,7 +375,12 @@ def qp_primal_active_set(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.nd
             p = np.zeros(n)
         if not np.all(np.isfinite(p)):
             return None
-        if float(np.max(np.abs(p))) <= 1e-13 * (1.0 + float(np.max(np.abs(x)))):
+        # p is zero when it is, or when it would not lower the objective beyond rounding (an
+        # ill-conditioned P leaves p ~ 1e-13 where it should vanish; stepping on it cycles)
+        gain = -float(g @ p) - 0.5 * float(p @ P @ p)
+        fx = abs(0.5 * float(x @ P @ x) - float(b @ x))
+        if (float(np.max(np.abs(p))) <= 1e-13 * (1.0 + float(np.max(np.abs(x))))
+                or gain <= 1e-13 * (1.0 + fx + gscale * float(np.max(np.abs(p))))):
             if not W:
                 return x
             lam = np.linalg.lstsq(Aw.T, -g, rcond=1e-14)[0]  # g + A_Wᵀλ = 0
