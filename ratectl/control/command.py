@@ -23,6 +23,8 @@ __all__ = ["Command", "STATUSES", "make_command"]
 #: ``Command.flags`` lists all that apply).
 STATUSES = (
     "halted",                # safe halt: decelerating to zero (reason in Command.reason)
+    "limit-recovery",        # a joint measured inside its stopping distance or beyond a position
+                             # limit: braking harder than amax, or moving back into the range
     "singular",              # the solver failed or needed more than vmax near a singularity
     "joint-limit",           # a joint position limit clipped q̇
     "velocity-scaled",       # q̇ was scaled down uniformly to respect vmax

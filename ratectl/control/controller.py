@@ -13,8 +13,10 @@ a one-DOF Ruckig profile on the progress ‖e‖ gives the speed and the acceler
 filter then follows without lag), and applies the limits in this order: velocity (uniform
 scaling, which keeps the direction of motion), acceleration (the change of q̇ per cycle is
 scaled to fit amax·dt), joint position (each joint may only move as fast as it can still
-stop before its limit at amax in whole periods, ``braking_speed_discrete``; without an
-acceleration limit that is d/dt, so the velocity limit alone enforces the range). A solver
+stop before its limit at amax whatever the later periods are, ``braking_speed_any_dt``;
+without an acceleration limit that is d/dt, so the velocity limit alone enforces the
+range; after a fault — a measured q inside the stopping distance or beyond a limit — the
+position side wins over amax, status ``limit-recovery``). A solver
 that enforces the limits itself (the QP, ``enforces_limits = True``) is not limited again:
 its bounds and any extra rows (collision limits) are kept as solved and only reported.
 Then the controller optionally smooths the result with a Ruckig velocity filter
@@ -34,6 +36,7 @@ errors and raise `InputError` at once.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -45,6 +48,7 @@ from ..model.limits import (
     Limits,
     braking_speed,
     braking_speed_discrete,
+    speed_toward_limit,
     stopping_distance,
 )
 from ..spatial import pose_error_into, rigid_transform_defect
@@ -168,16 +172,21 @@ class ResolvedRateController:
             # an absent acceleration limit: a joint can stop in one period, so its position
             # limit is enforced by the velocity limit alone (the braking speed is d/dt)
             self._amax_f = np.where(np.isfinite(lim.amax), lim.amax, _NO_AMAX)
+            self._inv_amax_f = 1.0 / self._amax_f
+            self._two_over_a2 = np.concatenate([2.0 / self._amax_f, 2.0 / self._amax_f])
+            self._amax_f2 = np.concatenate([self._amax_f, self._amax_f])
             self._plo = np.where(np.isfinite(lim.lower), lim.lower, -big)
             self._phi = np.where(np.isfinite(lim.upper), lim.upper, big)
             vf = np.where(np.isfinite(lim.vmax), lim.vmax, big)
             # distance within which a joint at full speed may need to brake (per side, so a
-            # one-sided limit is watched too): v²/(2a), 0 without an acceleration limit
+            # one-sided limit is watched too): v²/(2a), 0 without an acceleration limit; the
+            # gate adds one period at vmax (braking_speed_any_dt reaches vmax there)
             fin = np.isfinite(lim.vmax) & np.isfinite(lim.amax)
             vfin = np.where(fin, vf, 0.0)
             self._pbrake = np.where(fin, vfin**2 / (2.0 * np.where(fin, self._amax_f, 1.0)),
                                     np.where(np.isfinite(lim.vmax), 0.0, big))
             self._vf = vf
+            self._vf2 = np.concatenate([vf, vf])
             self._proom = None
             self._proom_dt = None
         else:
@@ -603,6 +612,8 @@ class ResolvedRateController:
             # would move q̇ off its optimum and could break its extra rows
             cyc.qd, cyc.scale = self._report_solver_limits(cyc.res, cyc.qd, cyc.smin, cyc.flags,
                                                            cyc.reasons, cyc.scale)
+            if self._has_p:
+                self._report_solver_recovery(cyc, q, dt)
         else:
             self._limit_velocity(cyc)
         if "velocity-scaled" in cyc.flags:
@@ -666,26 +677,71 @@ class ResolvedRateController:
         return bool(((self._phi - q) < room).any() or ((q - self._plo) < room).any())
 
     def _limit_position(self, cyc: _Cycle, q, dt) -> None:
-        """Clip each joint's q̇ to the speed from which it can still stop before its limits."""
-        adt = self._amax_f * dt
-        inv_adt2, inv_dt = 1.0 / (adt * dt), 1.0 / dt
-        # the speed from which the joint still stops before the limit, braking by at most
-        # amax·dt per period (braking_speed_discrete: the discrete √(2·amax·d), ≥ d/dt; with
-        # no acceleration limit exactly d/dt, the velocity limit then bounds the approach)
-        hi_v = braking_speed_discrete(self._phi - q, adt, inv_adt2, inv_dt)
-        lo_v = -braking_speed_discrete(q - self._plo, adt, inv_adt2, inv_dt)
-        # a joint found beyond a limit (a disturbance, or a start outside the range) is
-        # brought back no faster than vmax and no harder than amax from the previous q̇
-        hi_v = np.maximum(hi_v, np.maximum(-self._vf, self._qd - adt))
-        lo_v = np.minimum(lo_v, np.minimum(self._vf, self._qd + adt))
-        clipped = np.clip(cyc.qd, lo_v, hi_v)
+        """Clip each joint's q̇ to the speed from which it can still stop before its limits
+        (`speed_toward_limit`: the braking bound `braking_speed_any_dt`, valid when dt
+        changes between cycles; beyond a limit, back into the range within vmax and amax,
+        never further out). The position side wins over the acceleration limit: a joint
+        whose measured q jumped inside its stopping distance brakes harder than amax for
+        one period (status ``limit-recovery``) rather than run past its limit."""
+        hi_v, lo_v = self._position_box(q, dt)
+        clipped = np.minimum(np.maximum(cyc.qd, lo_v), hi_v)
         changed = clipped != cyc.qd
+        hard = None
+        ratio = 0.0
         if changed.any():
             joints = np.flatnonzero(changed)
             cyc.qd = clipped
             cyc.flags.insert(0, "joint-limit")
             cyc.reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
             cyc.active.append("position")
+            if self.filter is None:  # (with smoothing the filter then keeps amax and jmax)
+                step = np.abs(clipped - self._qd) * self._inv_amax_f / dt
+                hard = changed & (step > 1.0 + 1e-9)
+                ratio = float(step.max())
+        self._report_limit_recovery(cyc, q, hard, ratio)  # also a joint measured beyond a limit
+
+    def _position_box(self, q, dt) -> tuple[np.ndarray, np.ndarray]:
+        """(hi, lo): the position side of each joint's velocity box, `speed_toward_limit` toward
+        the upper limit and (mirrored) the lower one, from the previous q̇; both sides in one
+        stacked call."""
+        n = self._n
+        b = speed_toward_limit(np.concatenate([self._phi - q, q - self._plo]),
+                               np.concatenate([self._qd, -self._qd]), dt=dt, two_over_a=self._two_over_a2,
+                               adt=self._amax_f2 * dt, vmax=self._vf2)
+        return b[:n], -b[n:]
+
+    def _report_solver_recovery(self, cyc: _Cycle, q, dt) -> None:
+        """``limit-recovery`` for a limit-enforcing solver: its box resolved a conflict of
+        the acceleration bound against the position bound (``info["conflicts"]``, the
+        position side won), or a joint is measured beyond a position limit."""
+        info = cyc.res.info
+        conflicts = info.get("conflicts", ()) if isinstance(info, Mapping) else ()
+        if not conflicts and not ((q > self._phi).any() or (q < self._plo).any()):
+            return
+        hard = np.zeros(self._n, dtype=bool)
+        for joint, kinds in conflicts:
+            if "acceleration" in kinds:
+                hard[joint] = True
+        step = np.abs(cyc.qd - self._qd) * self._inv_amax_f / dt
+        self._report_limit_recovery(cyc, q, hard, float(step[hard].max()) if hard.any() else 0.0)
+
+    def _report_limit_recovery(self, cyc: _Cycle, q, hard: np.ndarray | None, ratio: float) -> None:
+        """Status ``limit-recovery`` (with the reason) for the joints ``hard`` (bool mask) whose
+        position bound changed q̇ by more than amax·dt (``ratio`` = the largest |Δq̇|/(amax·dt)),
+        and for joints measured beyond a position limit."""
+        out = (q > self._phi) | (q < self._plo)
+        some_hard = hard is not None and bool(hard.any())
+        if not (some_hard or out.any()):
+            return
+        cyc.flags.insert(0, "limit-recovery")
+        if some_hard:
+            assert hard is not None
+            cyc.reasons.insert(0, f"joint(s) {np.flatnonzero(hard).tolist()} measured within the "
+                               "stopping distance of a position limit (or beyond it): braking at "
+                               f"{ratio:.3g}× amax to stay inside the range")
+        if out.any():
+            cyc.reasons.insert(0, f"joint(s) {np.flatnonzero(out).tolist()} measured beyond a position "
+                               "limit: commanded back into the range, never further out")
 
     # --- stage 5: smoothing and integration
     def _smooth(self, cyc: _Cycle, q, dt, qdd_ff) -> Command | None:
@@ -703,10 +759,84 @@ class ResolvedRateController:
                 cyc.q_next, cyc.qd, cyc.qdd = self.filter.update(q, cyc.qd, qdd_ff, independent=cyc.braking)
             except RatectlError as err:
                 return self._halt(q, dt, f"smoothing failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
+            if self._has_p:
+                self._smoothed_limit_recovery(cyc, q, dt)
         else:
             cyc.q_next = q + cyc.qd * dt
             cyc.qdd = (cyc.qd - self._qd) / dt
         return None
+
+    def _smoothed_limit_recovery(self, cyc: _Cycle, q, dt) -> None:
+        """The position side wins over the filter's jerk and acceleration limits: a joint
+        whose smoothed motion would end this period beyond a position limit (further out
+        than it is measured) — possible only after a fault, a measured q that jumped inside
+        the jerk-limited stopping distance — is commanded, for this period, the largest
+        speed that still leaves room for the filter's own jerk-limited stop from rest
+        acceleration afterwards (≤ `speed_toward_limit`; beyond a limit: back into the
+        range, never further out); its filter state is set to that velocity with the
+        period's mean acceleration clipped to ±amax, or 0 where that would speed the joint
+        up (``Command.qdd``), and the status is ``limit-recovery``. The later periods are
+        then jerk-limited again."""
+        q_next = cyc.q_next
+        tol = 1e-12 * (1.0 + np.abs(q))
+        out = (q_next > np.maximum(self._phi, q) + tol) | (q_next < np.minimum(self._plo, q) - tol)
+        f = self.filter
+        assert f is not None
+        if cyc.braking is not None and cyc.braking.any():
+            # a joint the guard brakes: is it already inside its stopping distance? (for the
+            # others even the guard's look-ahead stop fits, so the stop from now fits too)
+            out |= self._inside_stopping_distance(q, f, cyc.braking)
+        if not out.any():
+            return
+        bounds = []
+        hi_b, lo_b = self._position_box(q, dt)
+        for room, b in ((self._phi - q, hi_b), (q - self._plo, -lo_b)):
+            # after this period the filter brakes jerk-limited from (b, 0): that stop must fit
+            rest = np.maximum(room - np.maximum(b, 0.0) * dt, 0.0)
+            bounds.append(np.where(room >= 0.0, np.minimum(b, braking_speed(rest, f.amax, f.jmax)), b))
+        qd = np.where(out, np.minimum(np.maximum(cyc.qd, -bounds[1]), bounds[0]), cyc.qd)
+        cyc.q_next = np.where(out, q + qd * dt, q_next)
+        fd = (qd - self._qd) / dt
+        ratio = float(np.max(np.abs(fd[out]) * self._inv_amax_f[out]))
+        # the filter goes on from there, at the period's mean acceleration clipped to ±amax,
+        # or 0 where that would still speed the joint up: its jerk-limited stop from that
+        # state is no longer than from (q̇, 0), which fits the room left
+        acc = np.where(fd * qd > 0.0, 0.0, np.minimum(np.maximum(fd, -f.amax), f.amax))
+        cyc.qdd = np.where(out, acc, cyc.qdd)
+        cyc.qd = qd
+        f.reset(qd, cyc.qdd)
+        joints = np.flatnonzero(out).tolist()
+        cyc.flags.insert(0, "limit-recovery")
+        cyc.reasons.insert(0, f"joint(s) {joints} measured inside their jerk-limited stopping distance "
+                           "of a position limit (or beyond it): smoothing overridden for one period, "
+                           f"braking at {ratio:.3g}× amax to stay inside the range (never further out)")
+        if "position" not in cyc.active:
+            cyc.active.append("position")
+
+    def _inside_stopping_distance(self, q, f, braking: np.ndarray) -> np.ndarray:
+        """Joints (mask) among ``braking`` that can no longer stop before a position limit
+        from the filter state (q̇, q̈) at the start of the period: the exact distance of the
+        time-optimal jerk-limited stop toward the limit it moves to (`stopping_distance`
+        with ``exact_when_braking``, what Ruckig does when told to stop) exceeds the room.
+        The guard never lets that happen (it starts braking while the stop still fits):
+        only a fault does. The default `stopping_distance` (an over-estimate while braking)
+        screens the joints first; the exact one is computed only for those it flags."""
+        inside = np.zeros(self._n, dtype=bool)
+        i = np.flatnonzero(braking & (self._qd != 0.0))
+        if not i.size:
+            return inside
+        up = self._qd[i] > 0.0  # moving toward the upper limit, else toward the lower one
+        room = np.where(up, self._phi[i] - q[i], q[i] - self._plo[i])
+        v = np.abs(self._qd[i])
+        a = np.where(up, self._qdd[i], -self._qdd[i])
+        A, Jm = f.amax[i], f.jmax[i]
+        limit = room * (1.0 + 1e-9) + 1e-12
+        cand = (room >= 0.0) & (stopping_distance(v, a, A, Jm) > limit)
+        if cand.any():
+            k = np.flatnonzero(cand)
+            cand[k] = stopping_distance(v[k], a[k], A[k], Jm[k], exact_when_braking=True) > limit[k]
+        inside[i] = cand
+        return inside
 
     # --- stage 6: the command
     def _command(self, cyc: _Cycle, q, dt) -> Command:
@@ -817,7 +947,8 @@ class ResolvedRateController:
         if "acceleration" in kinds:
             flags.append("acceleration-limited")
             reasons.append(f"QP: joint(s) {joints} at the acceleration bound")
-        extra = res.info.get("extra_active") if isinstance(res.info, dict) else None
+        # (info is a read-only Mapping, not a dict)
+        extra = res.info.get("extra_active") if isinstance(res.info, Mapping) else None
         if extra is not None and np.any(extra):
             reasons.append(f"{int(np.count_nonzero(extra))} extra constraint row(s) active "
                            "(e.g. collision avoidance)")

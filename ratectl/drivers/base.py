@@ -29,6 +29,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..arrays import read_only
 from ..model import Chain
 
 __all__ = ["RobotState", "Driver"]
@@ -51,9 +52,7 @@ class RobotState:
     def __post_init__(self) -> None:
         object.__setattr__(self, "stamp", float(self.stamp))
         for name in ("q", "qd"):
-            a = np.array(getattr(self, name), dtype=float).reshape(-1)
-            a.setflags(write=False)
-            object.__setattr__(self, name, a)
+            object.__setattr__(self, name, read_only(np.reshape(getattr(self, name), -1)))
 
     @property
     def finite(self) -> bool:

@@ -19,6 +19,8 @@ from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arrays import read_only
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -111,12 +113,7 @@ class Execution:
             a = getattr(self, name)
             if a is None:
                 continue
-            if not isinstance(a, np.ndarray):
-                a = np.asarray(a)
-            elif a.flags.writeable:
-                a = a.copy()
-            a.setflags(write=False)
-            object.__setattr__(self, name, a)
+            object.__setattr__(self, name, read_only(a, dtype=None))
         object.__setattr__(self, "info", _frozen(self.info) if self.info else _EMPTY)
 
     def __reduce__(self) -> tuple[Any, ...]:
@@ -284,9 +281,8 @@ def _frozen(value: Any) -> Any:
         return MappingProxyType({k: _frozen(v) for k, v in value.items()})
     if isinstance(value, (list, tuple)) and type(value) in (list, tuple):
         return tuple(_frozen(v) for v in value)
-    if isinstance(value, np.ndarray) and value.flags.writeable:
-        value = value.copy()
-        value.setflags(write=False)
+    if isinstance(value, np.ndarray):
+        return read_only(value, dtype=None)
     return value
 
 

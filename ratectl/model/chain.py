@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .. import kinematics
+from ..arrays import read_only
 from ..errors import ImportModelError, InputError, ModelError
 from ..io.description import ModelDescription
 from .joints import DH, MDH, Joint, check_transform
@@ -47,21 +48,17 @@ class Chain:
                 raise ModelError(f"joint {k} must be a ratectl.Joint, got {type(j).__name__}",
                                  joint=k, value=j)
         self._joints = joints
-        self._base = check_transform(base, "base")
-        self._tool = check_transform(tool, "tool")
-        self._base.setflags(write=False)
-        self._tool.setflags(write=False)
+        self._base = read_only(check_transform(base, "base"))
+        self._tool = read_only(check_transform(tool, "tool"))
         self._name = str(name)
         self._table = table
         self._n = len(joints)
         self._qshape = (self._n,)
-        self._lower = np.array([j.qlim[0] for j in joints])
-        self._upper = np.array([j.qlim[1] for j in joints])
-        self._vmax = np.array([j.vmax for j in joints])
-        self._amax = np.array([j.amax for j in joints])
-        self._jmax = np.array([j.jmax for j in joints])
-        for a in (self._lower, self._upper, self._vmax, self._amax, self._jmax):
-            a.setflags(write=False)
+        self._lower = read_only([j.qlim[0] for j in joints])
+        self._upper = read_only([j.qlim[1] for j in joints])
+        self._vmax = read_only([j.vmax for j in joints])
+        self._amax = read_only([j.amax for j in joints])
+        self._jmax = read_only([j.jmax for j in joints])
         self._prismatic = np.array([j.kind == "prismatic" for j in joints])
         if characteristic_length is None:
             characteristic_length = self.reach()

@@ -9,7 +9,10 @@ Braking toward a position limit at distance d has one home here, in the two moti
 models the package uses:
 
 * acceleration-limited, in steps of dt (the QP's and the unsmoothed controller's bound):
-  `braking_speed_discrete`, the exact discrete form of √(2·amax·d);
+  `braking_speed_any_dt`, the largest speed that, held for this period, still leaves
+  room to brake at amax whatever the later periods are (dt may change every cycle), and
+  `braking_speed_discrete`, the exact discrete form of √(2·amax·d) for a dt that never
+  changes (the approach to a target plans with it);
 * jerk-limited, continuous (what Ruckig's time-optimal stop does, for smoothed control):
   `stopping_distance` and its inverse `braking_speed`.
 """
@@ -22,9 +25,11 @@ from typing import Any
 
 import numpy as np
 
+from ..arrays import read_only
 from ..errors import InputError
 
-__all__ = ["Limits", "braking_speed_discrete", "stopping_distance", "braking_speed", "braking_speed_slope"]
+__all__ = ["Limits", "braking_speed_any_dt", "speed_toward_limit", "braking_speed_discrete",
+           "stopping_distance", "braking_speed", "braking_speed_slope"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,7 +53,7 @@ class Limits:
             try:
                 if np.iscomplexobj(getattr(self, name)):
                     raise TypeError("complex")
-                a = np.array(getattr(self, name), dtype=float)
+                a = read_only(getattr(self, name))
             except (TypeError, ValueError):
                 raise InputError(f"Limits.{name} must be an array of numbers, got "
                                  f"{getattr(self, name)!r}", argument=name,
@@ -56,7 +61,6 @@ class Limits:
             if a.ndim != 1:
                 raise InputError(f"Limits.{name} must be a 1-D array (one value per joint), got "
                                  f"shape {a.shape}", argument=name, value=a)
-            a.setflags(write=False)
             object.__setattr__(self, name, a)
         if not (self.lower.shape == self.upper.shape == self.vmax.shape == self.amax.shape):
             raise InputError("Limits.lower, upper, vmax and amax must have the same length",
@@ -107,6 +111,63 @@ def _validate(lower, upper, vmax, amax, what) -> None:
                          "side", argument="lower", value=(lower, upper))
 
 
+def braking_speed_any_dt(D: np.ndarray | float, dt: Any, two_over_a: Any):
+    """Largest speed v [rad/s or m/s] toward a limit at distance D [rad or m] that may be
+    commanded for the coming period dt [s] so that the joint can still stop before the
+    limit with |Δq̇| ≤ a·dt' in every later period, **whatever the later periods dt' are**
+    (``two_over_a`` = 2/a, precomputed by the caller; a huge a stands for no acceleration
+    limit, and then v = D/dt):
+
+        v·dt + v²/(2a) ≤ D   ⇔   v ≤ −a·dt + √((a·dt)² + 2a·D) = 2D / (dt + √(dt² + 2D/a))
+
+    (the second form has no cancellation and no overflow for a huge a). For D < 0 (beyond
+    the limit) it returns D/dt (move back; callers decide how fast).
+
+    Why any dt: a joint that leaves a period at speed v with room R ≥ v²/(2a) brakes in
+    later periods dt₁, dt₂, … at v − a·t₁, v − a·t₂, … (t_k = dt₁ + … + dt_k, until 0),
+    and covers Σ max(v − a·t_k, 0)·dt_k, a right Riemann sum of the decreasing v − a·t, so
+    at most ∫ = v²/(2a) ≤ R: it stops in time. And the bound is consistent with the
+    acceleration limit for every next period dt': from v ≤ v_max(D, dt) the joint is at
+    D' = D − v·dt ≥ v²/(2a), and u = v − a·dt' satisfies u·dt' + u²/(2a) = v²/(2a) − a·dt'²/2
+    ≤ D', so the next bound is ≥ v − a·dt': "within the braking bound" and "within a·dt'
+    of the previous q̇" always meet, unless a fault (a measured q that jumped, a state not
+    produced by this bound) put the joint inside its stopping distance.
+
+    Compared with `braking_speed_discrete` for a constant dt the speed is lower by about
+    a·dt/2 far from the limit (√(2aD) − a·dt instead of √(2aD) − a·dt/2); both tend to D/dt
+    as D → 0.
+    """
+    Dp = np.maximum(D, 0.0)
+    return 2.0 * Dp / (dt + np.sqrt(dt * dt + Dp * two_over_a)) + np.minimum(D, 0.0) / dt
+
+
+def speed_toward_limit(D: np.ndarray, v_prev: np.ndarray | None, *, dt: float, two_over_a: Any,
+                       adt: Any, vmax: Any) -> np.ndarray:
+    """The position side of a joint's velocity box: the largest velocity toward a limit
+    (positive toward it) [rad/s or m/s] at signed room D [rad or m] (D < 0: beyond it),
+    given the previous command's velocity toward it ``v_prev`` (None: unknown), the period
+    dt [s], ``two_over_a`` = 2/a, ``adt`` = a·dt and the velocity limit ``vmax``:
+
+    * inside the range (D ≥ 0): `braking_speed_any_dt`, which stops the joint at the
+      limit at the latest. When the acceleration window [v_prev − a·dt, v_prev + a·dt]
+      lies wholly above it (only after a fault: a measured q that jumped into the
+      stopping distance), **the position side wins**: the joint brakes harder than amax
+      for that period (callers report it; the next period is consistent again, because
+      the bound leaves room v²/(2a) to brake at amax);
+    * beyond the limit (D < 0): back into the range, no faster than vmax, no harder than
+      a·dt from ``v_prev`` and no farther than to the limit in one period, and **never
+      further out**: min(0, max(D/dt, −vmax, v_prev − a·dt)). A joint still moving out
+      faster than a·dt gets 0 (again harder than amax, reported by the caller).
+    """
+    b = braking_speed_any_dt(D, dt, two_over_a)
+    if not (np.asarray(D) < 0.0).any():
+        return b
+    back = np.maximum(b, -vmax)
+    if v_prev is not None:
+        back = np.maximum(back, v_prev - adt)
+    return np.where(D >= 0.0, b, np.minimum(back, 0.0))
+
+
 def braking_speed_discrete(D: np.ndarray | float, adt: Any, inv_adt2: Any, inv_dt: Any):
     """Largest speed toward a limit at distance D (≥ 0) [rad or m] from which the joint
     can still stop before it, braking by at most a·dt per step of dt (arguments: D, a·dt,
@@ -119,6 +180,10 @@ def braking_speed_discrete(D: np.ndarray | float, adt: Any, inv_adt2: Any, inv_d
     √(2a·D) and includes D/dt (k = 0: stop exactly at the limit within this step), and it
     is consistent with the acceleration bound: from v the next step's bound is ≥ v − a·dt.
     For D < 0 (beyond the limit) it returns D/dt (move back).
+
+    Only for a dt that never changes: after a period of dt the next period's bound with a
+    shorter dt' can lie below v − a·dt' (braking harder than amax); limits use
+    `braking_speed_any_dt`.
     """
     Dp = np.maximum(D, 0.0)
     u = Dp * inv_adt2
@@ -128,7 +193,7 @@ def braking_speed_discrete(D: np.ndarray | float, adt: Any, inv_adt2: Any, inv_d
 
 
 def stopping_distance(v: np.ndarray | float, a: np.ndarray | float, amax: np.ndarray | float,
-                      jmax: np.ndarray | float) -> np.ndarray:
+                      jmax: np.ndarray | float, *, exact_when_braking: bool = False) -> np.ndarray:
     """Distance a joint travels while a time-optimal jerk-limited stop brings it from
     velocity ``v`` ≥ 0 and acceleration ``a`` to rest (|q̈| ≤ amax, |q⃛| ≤ jmax); arrays
     broadcast. Units: rad (or m) for rad/s, rad/s², rad/s³.
@@ -140,16 +205,49 @@ def stopping_distance(v: np.ndarray | float, a: np.ndarray | float, amax: np.nda
 
     With a > 0 (still speeding up) the jerk first brings a to 0 in a/J, adding
     v·a/J + a³/(3J²) of travel and a²/(2J) of speed: D = v·a/J + a³/(3J²) + D₀(v + a²/(2J)).
-    A negative a (already braking) is counted as 0, which over-estimates D (safe side).
+    A negative a (already braking) is counted as 0, which over-estimates D (safe side);
+    with ``exact_when_braking=True`` it is the exact distance of that stop too
+    (`_braking_stop_distance`).
     """
     v = np.maximum(np.asarray(v, dtype=float), 0.0)
-    a = np.maximum(np.asarray(a, dtype=float), 0.0)
+    a_in = np.asarray(a, dtype=float)
+    a = np.maximum(a_in, 0.0)
     A = np.asarray(amax, dtype=float)
     J = np.asarray(jmax, dtype=float)
+    if exact_when_braking and np.any(a_in < 0.0):
+        return np.where(a_in < 0.0, _braking_stop_distance(v, np.minimum(a_in, 0.0), A, J),
+                        stopping_distance(v, a, A, J))
     lead = v * a / J + a**3 / (3.0 * J * J)
     w = v + a * a / (2.0 * J)
     d0 = np.where(w <= A * A / J, w * np.sqrt(w / J), w * w / (2.0 * A) + w * A / (2.0 * J))
     return lead + d0
+
+
+def _braking_stop_distance(v, a0, A, J):
+    """The exact distance of the time-optimal jerk-limited stop (to v = 0, q̈ = 0) from
+    v ≥ 0 while already braking, a0 ≤ 0 (|a0| ≤ A):
+
+    * v ≤ a0²/(2J): even releasing the brake at once (jerk +J) reaches v = 0 before q̈ = 0;
+      the forward travel ends at the first root t* = (|a0| − √(a0² − 2Jv))/J of
+      v + a0·t + J·t²/2, D = v·t* + a0·t*²/2 + J·t*³/6;
+    * otherwise the deceleration first grows (jerk −J) to a peak a_p, a_p² = J·v + a0²/2,
+      then returns to 0 (jerk +J); if a_p² > A² it is held at −A in between (until the
+      speed is A²/(2J)), and the last ramp travels A³/(6J²).
+    """
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        disc = np.maximum(a0 * a0 - 2.0 * J * v, 0.0)
+        ts = (-a0 - np.sqrt(disc)) / J
+        d_release = v * ts + 0.5 * a0 * ts * ts + J * ts**3 / 6.0
+        ap = np.minimum(np.sqrt(J * v + 0.5 * a0 * a0), A)  # |peak deceleration|
+        t1 = np.maximum(ap + a0, 0.0) / J  # a0 → −ap
+        d1 = v * t1 + 0.5 * a0 * t1 * t1 - J * t1**3 / 6.0
+        v1 = v + a0 * t1 - 0.5 * J * t1 * t1
+        vr = 0.5 * ap * ap / J  # the speed the last ramp (−ap → 0) removes
+        th = np.maximum(v1 - vr, 0.0) / ap  # hold at −A (0 unless ap = A)
+        dh = v1 * th - 0.5 * ap * th * th
+        t3 = ap / J
+        d3 = vr * t3 - 0.5 * ap * t3 * t3 + J * t3**3 / 6.0
+    return np.where(v <= 0.5 * a0 * a0 / J, d_release, d1 + dh + d3)
 
 
 def braking_speed(d: np.ndarray | float, amax: np.ndarray | float, jmax: np.ndarray | float) -> np.ndarray:

@@ -58,6 +58,10 @@ class Trapezoidal(TimeLaw):
             self.vpeak, self.ta, self.duration, self.a = 0.0, 0.0, 0.0, a
             return
         vp = min(v, math.sqrt(a * L))
+        if not vp > 0.0:  # a·L underflows (a denormal acceleration): the motion never starts
+            raise InputError(f"speed {v!r} and acceleration {a!r} cannot move {L:.3g} m in finite "
+                             "time (√(acceleration·length) underflows to 0)", argument="acceleration",
+                             value=acceleration)
         ta = vp / a
         self.vpeak, self.ta, self.a = vp, ta, a
         self.duration = 2.0 * ta + (L - vp * ta) / vp

@@ -52,3 +52,14 @@ def test_paths_sample_finite_or_ratectl_error(fuzz):
         assert len(t) <= 2_000
 
     prop()
+
+
+def test_a_denormal_acceleration_is_an_input_error():
+    """acceleration = 5e-324 (found by the soak): √(a·L) underflows to 0 and the trapezoidal
+    law divided by it (ZeroDivisionError); it is a ratectl InputError naming the cause."""
+    import pytest
+
+    T0, T1 = np.eye(4), np.eye(4)
+    T1[0, 3] = 1e-3
+    with pytest.raises(rc.errors.InputError, match="underflows"):
+        rc.paths.Line(T0, T1, speed=1.0, acceleration=5e-324)

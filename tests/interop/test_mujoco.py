@@ -371,3 +371,40 @@ def test_pick_gl_backend_after_mujoco_is_imported_reports_what_is_in_force(monke
 
     monkeypatch.setenv("MUJOCO_GL", "egl")
     assert pick_gl_backend() == "egl"  # mujoco is already imported here: nothing is probed
+
+
+def test_mink_limited_solver_bounds_the_total_command_with_a_joint_feed_forward():
+    """A `MinkLimitedSolver` sets ``enforces_limits`` (from the QP it wraps), so the
+    controller hands it the joint feed-forward ``qd_ff`` and its box holds for the total
+    q̇_ff + correction: a feed-forward at vmax into joint 1's upper limit, 2 cm away, with
+    a new dt every few periods, stops at the limit within vmax and amax (the controller
+    does not limit the answer again)."""
+    arm, _, _, model, links = _obstacle_scene()
+    kin = MinkKinematics(model, frame="tool", chain=arm)
+    lim = mink.CollisionAvoidanceLimit(model, [(links, ["ball"])], gain=0.1,
+                                       minimum_distance_from_collisions=0.02,
+                                       collision_detection_distance=0.15)
+    solver = MinkLimitedSolver(kin, [lim])
+    assert solver.enforces_limits
+    ctrl = rc.ResolvedRateController(kin, solver=solver)
+    q = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
+    q[0] = arm.upper[0] - 0.02
+    T = arm.fk(q)
+    qd_ff = np.zeros(6)
+    qd_ff[0] = arm.vmax[0]
+    prev = np.zeros(6)
+    rng = np.random.default_rng(5)
+    dt = 1e-3
+    for k in range(300):
+        if k % 3 == 0:
+            dt = float(rng.choice([1e-3, 2e-3, 4e-3, 1e-2]))
+        cmd = ctrl.step(q, target=T, qd_ff=qd_ff, dt=dt)
+        assert cmd.status != "halted", cmd.reason
+        assert np.allclose(cmd.qd, cmd.solve.qd + qd_ff)  # the solver resolved the correction
+        assert "acceleration_bounds_dropped" not in cmd.solve.info
+        assert np.all(np.abs(cmd.qd) <= arm.vmax * (1 + 1e-9))
+        assert np.all(np.abs(cmd.qd - prev) <= arm.amax * dt * (1 + 1e-6)), k
+        prev = np.array(cmd.qd)
+        q = np.array(cmd.q_next)
+        assert np.all(q <= arm.upper + 1e-9) and np.all(q >= arm.lower - 1e-9)
+    assert q[0] > arm.upper[0] - 1e-3 and abs(cmd.qd[0]) < 1e-6  # it reached the limit and held

@@ -16,15 +16,14 @@ intersection, per joint, of
 * the position limit turned into a velocity bound for the step dt with a margin m and
   a braking term that respects the acceleration limit a = amax: with the distance
   d = upper − m − q (resp. q − lower − m), q̇ ≤ v_stop(d) (resp. q̇ ≥ −v_stop(d)), where
-  v_stop(d) is the largest speed from which braking by a·dt per step still stops within
-  d. Braking from v = (k + f)·a·dt (k integer, 0 ≤ f < 1) covers
-  a·dt²·((k + 1)f + k(k + 1)/2), so with u = d/(a·dt²), k = ⌊(√(8u + 1) − 1)/2⌋,
-  f = min((u − k(k + 1)/2)/(k + 1), 1): v_stop = (k + f)·a·dt. This is the discrete
-  form of √(2a·d); for small d it is d/dt (stop exactly at the limit this step), and it
-  is consistent with the acceleration bound (from v_stop(d) the next step's bound is
-  exactly v_stop − a·dt), so a joint braking into a limit never makes the box empty.
-  Beyond a limit (d < 0) the bound is d/dt (move back). Without ``dt`` the continuous
-  √(2a·d) is used;
+  v_stop(d) is the largest speed that, held for this period, still leaves room to brake
+  at a: v·dt + v²/(2a) ≤ d, v_stop = 2d/(dt + √(dt² + 2d/a))
+  (`ratectl.model.limits.braking_speed_any_dt`). For small d it is d/dt (stop exactly at
+  the limit this step), and it is consistent with the acceleration bound for **any** next
+  period dt′ (from v_stop(d) the next step's bound is ≥ v_stop − a·dt′), so a joint
+  braking into a limit never makes the box empty, even when dt changes every step.
+  Beyond a limit (d < 0) the bound moves the joint back (within vmax and amax, never
+  further out: `speed_toward_limit`). Without ``dt`` the continuous √(2a·d) is used;
 * the acceleration limit given the previous command: |q̇ − q̇_prev| ≤ amax·dt.
 
 When the bounds conflict (e.g. moving too fast toward a limit to stop within the
@@ -47,7 +46,9 @@ optimum with ill-conditioned task weights — is replaced by the exact solution 
 feasible primal active-set method (`box_qp_exact`,
 ``"exact-active-set"``), which also answers when OSQP fails. With extra rows the OSQP
 answer is replaced by the exact solution on its active set when that passes the KKT
-check (`polish_general`). ``info["certified"]``
+check (`polish_general`); when OSQP fails, a cold retry, the dual (`qp_via_dual`) and a
+primal active-set method from a feasible point (`qp_primal_active_set`) follow, so only a
+problem whose rows and box have no common point raises. ``info["certified"]``
 says how the answer was certified. With ``qd_ff`` (a feed-forward the caller adds) the
 box is that of the total q̇_ff + q̇.
 
@@ -55,8 +56,9 @@ The default backend is OSQP kept **warm**: the problem is set up once with a fix
 sparsity pattern (P upper-triangular dense, A = [I; G]) and every later call only
 updates P's values, q, l, u (and A's values when G is given), then solves, warm-started
 from the previous solution. Re-setup happens only when the structure changes (n, or
-the number of extra rows). Tolerances are explicit (1e-7 with solution polishing, so the
-active set is solved exactly), and the final q̇ is clipped into [l, u] when it is outside
+the number of extra rows). Tolerances are explicit (1e-7; OSQP's own polishing is off —
+OSQP 1.x prints to stdout from it regardless of ``verbose`` — and ratectl solves the
+active set exactly itself), and the final q̇ is clipped into [l, u] when it is outside
 by less than ``tolerance``: limits hold to 1e-6. Other backends (``"daqp"``,
 ``"quadprog"``, ``"proxqp"``, …) are called through `qpsolvers.solve_qp`.
 """

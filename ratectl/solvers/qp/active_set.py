@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 from scipy.linalg import cho_solve
 from scipy.linalg import lapack as _lapack
+from scipy.optimize import nnls
 
 _dposv = _lapack.dposv
 _dot = np.dot
@@ -230,7 +231,8 @@ def polish_general(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     ``tol_act`` (relative) of equality form A x = c. The KKT system
     [P Aᵀ; A 0] [x; μ] = [b; c] is solved (least squares when rows are dependent), and the
     answer is accepted only when it is feasible (1e-9 relative), its multipliers are
-    non-negative (μ ≥ −1e-9·scale) and it satisfies the KKT stationarity to 1e-9·scale:
+    non-negative (μ ≥ −1e-9·scale; with dependent active rows, where μ is not unique, the
+    non-negative least-squares μ) and it satisfies the KKT stationarity to 1e-9·scale:
     then it is the optimum (the problem is convex)."""
     n = x.shape[0]
     eye = _eye(n)
@@ -263,7 +265,13 @@ def polish_general(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     if k:
         mu = np.linalg.lstsq(Aa.T, b - P @ xs, rcond=1e-13)[0]
         if np.any(mu < -1e-9 * scale):
-            return None
+            # dependent active rows (a fixed joint lo = hi holds both ±e_i, or rows of G
+            # that coincide) leave μ undetermined, and the least-norm μ may have a wrong
+            # sign although a valid one exists: the non-negative least-squares μ decides
+            try:
+                mu = nnls(Aa.T, b - P @ xs)[0]
+            except (ValueError, RuntimeError):
+                return None
         res = P @ xs - b + Aa.T @ mu
     else:
         res = P @ xs - b
@@ -305,3 +313,95 @@ def qp_via_dual(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, G:
         return None
     # the dual's accuracy follows cond(P): finish on x's active set, with the KKT certificate
     return polish_general(P, b, lo, hi, G, h, x, tol_act=1e-5)
+
+
+def qp_primal_active_set(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, G: np.ndarray,
+                         h: np.ndarray, *, max_iter: int | None = None):
+    """The exact minimiser of ½xᵀPx − bᵀx s.t. lo ≤ x ≤ hi, G x ≤ h (P positive
+    semidefinite, the objective bounded on the feasible set) by the primal active-set method
+    (Nocedal & Wright, Algorithm 16.3) on all rows a_iᵀx ≤ c_i at once; or None when the
+    rows have no common point or the method does not settle. The last resort of the QP when
+    OSQP, its polish and the dual fail (degenerate or ill-conditioned problems).
+
+    A feasible start comes from a linear programme (HiGHS, through ``scipy.optimize.linprog``:
+    the point that maximises the smallest slack, so it is inside wherever it can be). Each
+    iteration solves the equality-constrained step on the working set W,
+
+        [P  A_Wᵀ] [p]   [−(Px − b)]
+        [A_W  0 ] [λ] = [    0    ],
+
+    moves along p until the first blocking row (added to W), or, at p = 0, drops the row with
+    the most negative multiplier λ; it stops when every λ ≥ 0, which is the KKT certificate
+    (x feasible, stationary, multipliers of the right sign) — the optimum of a convex problem.
+    """
+    from scipy.optimize import linprog
+
+    n = b.shape[0]
+    eye = _eye(n)
+    A = np.vstack([eye, -eye, G])
+    c = np.concatenate([hi, -lo, h])
+    fin = np.isfinite(c) & (np.abs(c) < 1e14)
+    A, c = A[fin], c[fin]
+    m = c.shape[0]
+    if max_iter is None:
+        max_iter = 20 * (n + m) + 50
+    # phase 1: max t s.t. A x + t·‖a_i‖ ≤ c, t ≤ 1 (a point as far inside as the rows allow)
+    norms = np.sqrt(np.sum(A * A, axis=1))
+    res = linprog(np.concatenate([np.zeros(n), [-1.0]]), A_ub=np.hstack([A, norms[:, None]]), b_ub=c,
+                  bounds=[(None, None)] * n + [(None, 1.0)], method="highs")
+    if res.status != 0 or res.x is None or res.x[-1] < -1e-9:
+        return None
+    x = np.array(res.x[:n])
+    scale_c = 1.0 + np.abs(c)
+    W: list[int] = []
+    gscale = 1.0 + float(np.max(np.abs(b))) + float(np.max(np.abs(P))) * (1.0 + float(np.max(np.abs(x))))
+    for _ in range(max_iter):
+        g = P @ x - b
+        # the step in the null space Z of the working rows: p = Z·y, (ZᵀPZ) y = −Zᵀg
+        if W:
+            Aw = A[W]
+            _, sv, Vt = np.linalg.svd(Aw)
+            rank = int(np.sum(sv > 1e-12 * sv[0]))
+            Z = Vt[rank:].T
+        else:
+            Aw, Z = A[:0], eye
+        if Z.shape[1]:
+            try:
+                y = np.linalg.lstsq(Z.T @ P @ Z, -(Z.T @ g), rcond=1e-14)[0]
+            except (np.linalg.LinAlgError, ValueError):
+                return None
+            p = Z @ y
+        else:
+            p = np.zeros(n)
+        if not np.all(np.isfinite(p)):
+            return None
+        # p is zero when it is, or when it would not lower the objective beyond rounding (an
+        # ill-conditioned P leaves p ~ 1e-13 where it should vanish; stepping on it cycles)
+        gain = -float(g @ p) - 0.5 * float(p @ P @ p)
+        fx = abs(0.5 * float(x @ P @ x) - float(b @ x))
+        if (float(np.max(np.abs(p))) <= 1e-13 * (1.0 + float(np.max(np.abs(x))))
+                or gain <= 1e-13 * (1.0 + fx + gscale * float(np.max(np.abs(p))))):
+            if not W:
+                return x
+            lam = np.linalg.lstsq(Aw.T, -g, rcond=1e-14)[0]  # g + A_Wᵀλ = 0
+            if float(lam.min()) >= -1e-12 * gscale:
+                return x
+            W.pop(int(np.argmin(lam)))
+            continue
+        Ap = A @ p
+        slack = c - A @ x
+        block = (Ap > 0.0) & ~np.isin(np.arange(m), W)
+        alpha, j = 1.0, -1
+        if block.any():
+            steps = np.where(block, np.maximum(slack, 0.0) / np.where(block, Ap, 1.0), np.inf)
+            j = int(np.argmin(steps))
+            if steps[j] < 1.0:
+                alpha = float(steps[j])
+            else:
+                j = -1
+        x = x + alpha * p
+        if j >= 0:
+            W.append(j)
+        if np.any(A @ x - c > 1e-9 * scale_c):
+            return None
+    return None

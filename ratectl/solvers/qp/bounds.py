@@ -11,7 +11,7 @@ import numpy as np
 
 from ...arrays import read_only
 from ...errors import InputError
-from ...model.limits import Limits, braking_speed_discrete
+from ...model.limits import Limits, braking_speed_any_dt, speed_toward_limit
 from ..base import (
     _positive,
 )
@@ -63,15 +63,16 @@ class _BoundCache:
     """Precomputed arrays for the bound arithmetic of one (limits, dt, margin).
 
     Position bounds are computed on stacked (2n,) arrays, upper side first, lower side
-    mirrored: D = [upper − m − q; q − lower − m], bound = min(stop speed(D), vmax); the
+    mirrored: D = [upper − m − q; q − lower − m], bound = min(stop speed(D), vmax) with
+    the stop speed `braking_speed_any_dt` (valid when dt changes between steps); the
     lower bound is minus the second half. An absent position limit is a large finite
     number (no inf − inf); an absent acceleration limit is a huge finite one (the stop
     speed becomes D/dt).
     """
 
     __slots__ = ("src", "dt", "n", "limits", "vmax", "nvmax", "hi_lim", "lo_lim", "amax_dt",
-                 "has_pos", "has_acc", "inv_dt", "lim2", "sgn2", "idx2", "vmax2", "adt", "inv_adt2",
-                 "adt2", "inv_adt22", "two_a", "dstar2", "vmax_l", "amax_dt_l")
+                 "has_pos", "has_acc", "inv_dt", "lim2", "sgn2", "idx2", "vmax2", "adt", "two_over_a",
+                 "two_over_a2", "two_a", "dstar2", "vmax_l", "amax_dt_l")
 
     def __init__(self, src, limits, dt, margin):  # private: the numbers are checked by its callers
         self.src, self.dt = src, dt
@@ -85,6 +86,8 @@ class _BoundCache:
         afin = np.isfinite(limits.amax)
         a = np.where(afin, limits.amax, 1e200)
         self.two_a = 2.0 * a
+        self.two_over_a = 2.0 / a
+        self.two_over_a2 = np.concatenate([self.two_over_a, self.two_over_a])
         self.has_pos = bool(np.any(np.isfinite(limits.upper)) or np.any(np.isfinite(limits.lower)))
         self.has_acc = bool(np.any(afin))
         self.lim2 = np.concatenate([self.hi_lim, -self.lo_lim])
@@ -92,7 +95,7 @@ class _BoundCache:
         self.idx2 = np.concatenate([np.arange(n), np.arange(n)])
         self.vmax2 = np.concatenate([self.vmax, self.vmax])
         if dt is None:
-            self.amax_dt = self.inv_dt = self.adt = self.inv_adt2 = self.adt2 = self.inv_adt22 = None
+            self.amax_dt = self.inv_dt = self.adt = None
             self.amax_dt_l = None
             self.dstar2 = None
         else:
@@ -107,16 +110,11 @@ class _BoundCache:
             self.amax_dt_l = self.amax_dt.tolist()
             self.inv_dt = 1.0 / dt
             self.adt = a * dt
-            self.inv_adt2 = 1.0 / (a * dt * dt)
-            self.adt2 = np.concatenate([self.adt, self.adt])
-            self.inv_adt22 = np.concatenate([self.inv_adt2, self.inv_adt2])
-            # the distance from which a joint at full speed can still stop: farther than
-            # this from both limits, the velocity limit is the bound (no stop speed needed)
+            # the room from which a joint may move at full speed for one period and still
+            # stop: vmax·dt + vmax²/(2a) (where braking_speed_any_dt reaches vmax); farther
+            # than this from both limits, the velocity limit is the bound
             with np.errstate(over="ignore", invalid="ignore"):
-                r = self.vmax / self.adt
-                k = np.floor(r)
-                f = r - k
-                dstar = self.adt * dt * ((k + 1.0) * f + 0.5 * k * (k + 1.0))
+                dstar = self.vmax * dt + self.vmax * self.vmax / self.two_a
             # not finite (overflow): always compute the braking bounds (the safe side)
             dstar = np.where((limits.vmax < _BIG) & np.isfinite(dstar), dstar * (1.0 + 1e-9) + 1e-12,
                              np.inf)
@@ -131,7 +129,9 @@ def _box(bc: _BoundCache, q, qd_prev):
     if q is not None and bc.has_pos and bc.inv_dt is not None:
         D = bc.lim2 - q[bc.idx2] * bc.sgn2
         if (D < bc.dstar2).any():  # some joint is near a limit
-            U = np.minimum(braking_speed_discrete(D, bc.adt2, bc.inv_adt22, bc.inv_dt), bc.vmax2)
+            if (D < 0.0).any():
+                return _careful(bc, q, qd_prev)  # beyond a limit: the careful path
+            U = np.minimum(braking_speed_any_dt(D, bc.dt, bc.two_over_a2), bc.vmax2)
             hi = U[:n]
             lo = -U[n:]
             if float((hi - lo).min()) < 0.0:
@@ -196,8 +196,13 @@ def _bounds(cache, q, qd_prev, want_sources):  # private: cache is a _BoundCache
         dup = cache.hi_lim - q
         dlo = q - cache.lo_lim
         if cache.inv_dt is not None:
-            pu = braking_speed_discrete(dup, cache.adt, cache.inv_adt2, cache.inv_dt)
-            pl = -braking_speed_discrete(dlo, cache.adt, cache.inv_adt2, cache.inv_dt)
+            # inside the range the braking bound; beyond a limit back into the range (never
+            # further out), within vmax and, with qd_prev, within amax (speed_toward_limit)
+            acc = qd_prev is not None and cache.has_acc
+            pu = speed_toward_limit(dup, qd_prev if acc else None, dt=cache.dt,
+                                    two_over_a=cache.two_over_a, adt=cache.adt, vmax=cache.vmax)
+            pl = -speed_toward_limit(dlo, -qd_prev if acc else None, dt=cache.dt,
+                                     two_over_a=cache.two_over_a, adt=cache.adt, vmax=cache.vmax)
         else:  # no step: the continuous braking bound √(2a·d), and no motion beyond a limit
             pu = np.sqrt(cache.two_a * np.maximum(dup, 0.0))
             pl = -np.sqrt(cache.two_a * np.maximum(dlo, 0.0))

@@ -29,6 +29,7 @@ from .active_set import (
     box_qp_exact,
     kkt_violation,
     polish_general,
+    qp_primal_active_set,
     qp_via_dual,
 )
 from .bounds import _BIG, _BoundCache, _box, _sources, _vec
@@ -358,10 +359,16 @@ class QP(Solver):
                 qd, status, certified = x2, "exact-active-set", "exact-active-set"
                 held = st2.tolist()
         elif G is not None and h is not None:
-            # extra rows: the exact solution on OSQP's active set, with its KKT certificate
+            # extra rows: the exact solution on OSQP's active set, with its KKT certificate;
+            # when OSQP's active set is not the optimum's (an inaccurate answer), the exact
+            # solvers answer: the dual, then the primal active-set method
             x2 = polish_general(P, b, lo_, hi_, G, h, qd)
             if x2 is not None:
                 qd, certified = x2, "kkt"
+            elif (x2 := qp_via_dual(P, b, lo_, hi_, G, h)) is not None:
+                qd, status, certified = x2, "exact-dual", "exact-dual"
+            elif (x2 := qp_primal_active_set(P, b, lo_, hi_, G, h)) is not None:
+                qd, status, certified = x2, "exact-primal", "exact-primal"
             else:
                 certified = "none"  # feasibility is still checked by solve
         if lo is not None and hi is not None:
@@ -410,6 +417,11 @@ class QP(Solver):
         qd = qp_via_dual(P, b, lo_, hi_, G, h)  # the exact answer through the dual (a box QP)
         if qd is not None:
             return qd, "exact-dual", -1, True, None
+        # degenerate or ill-conditioned: the primal active-set method from a feasible point
+        # (its termination is the KKT certificate); None only when the rows are infeasible
+        qd = qp_primal_active_set(P, b, lo_, hi_, G, h)
+        if qd is not None:
+            return qd, "exact-primal", -1, True, None
         return None
 
     def _bound_sources(self, qd: np.ndarray, held: Any, lo: np.ndarray | None, hi: np.ndarray | None,

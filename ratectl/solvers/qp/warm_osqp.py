@@ -13,7 +13,9 @@ _OSQP_DEFAULTS = dict(
     eps_rel=1e-7,
     eps_prim_inf=1e-9,
     eps_dual_inf=1e-9,
-    polishing=True,
+    # OSQP 1.x prints "Polishing not needed" on stdout, verbose or not, when the optimum has
+    # no active bound: its polishing stays off (ratectl solves the active set exactly itself)
+    polishing=False,
     polish_refine_iter=3,
     check_termination=5,
     max_iter=4000,

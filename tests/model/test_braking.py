@@ -1,0 +1,81 @@
+"""Braking toward a position limit (``ratectl.model.limits``): the bound that holds when
+dt changes between periods, the beyond-the-limit rule, and the exact jerk-limited stop
+while already braking."""
+
+import math
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from ratectl.model.limits import (
+    braking_speed_any_dt,
+    braking_speed_discrete,
+    speed_toward_limit,
+    stopping_distance,
+)
+
+dts = st.lists(st.floats(1e-5, 0.05), min_size=1, max_size=60)
+
+
+@given(D=st.floats(0.0, 2.0), a=st.floats(0.1, 100.0), dt=st.floats(1e-5, 0.05), later=dts,
+       frac=st.floats(0.0, 1.0))
+def test_any_dt_bound_stops_before_the_limit_for_every_later_dt(D, a, dt, later, frac):
+    """From any v ≤ the bound, braking by a·dt' per period with arbitrary later periods dt'
+    stays before the limit, and each later period's bound is ≥ v − a·dt' (the bound and the
+    acceleration limit always meet)."""
+    v = frac * float(braking_speed_any_dt(D, dt, 2.0 / a))
+    assert v * dt + v * v / (2.0 * a) <= D * (1 + 1e-12) + 1e-15
+    room = D - v * dt
+    for dtk in later:
+        bound = float(braking_speed_any_dt(room, dtk, 2.0 / a))
+        assert bound >= v - a * dtk - 1e-12 * (1 + v)
+        v = max(v - a * dtk, 0.0)
+        room -= v * dtk
+        assert room >= -1e-12 * (1 + D)
+
+
+@given(D=st.floats(0.0, 2.0), a=st.floats(0.1, 100.0), dt=st.floats(1e-5, 0.05))
+def test_any_dt_bound_is_the_root_and_tends_to_the_discrete_bound(D, a, dt):
+    v = float(braking_speed_any_dt(D, dt, 2.0 / a))
+    assert math.isclose(v * dt + v * v / (2 * a), D, rel_tol=1e-9, abs_tol=1e-15)
+    vd = float(braking_speed_discrete(D, a * dt, 1.0 / (a * dt * dt), 1.0 / dt))
+    assert v <= vd * (1 + 1e-12) + 1e-15  # more conservative than the constant-dt bound
+    assert vd - v <= a * dt * (1 + 1e-9)  # by less than a·dt
+
+
+def test_any_dt_bound_without_acceleration_limit_is_room_per_period():
+    assert float(braking_speed_any_dt(0.3, 0.01, 2.0 / 1e200)) == 30.0
+    assert float(braking_speed_any_dt(0.3, 0.01, 0.0)) == 30.0
+    assert float(braking_speed_any_dt(-0.3, 0.01, 0.2)) == -30.0
+
+
+def test_beyond_the_limit_the_command_goes_back_and_never_further_out():
+    D = np.array([-0.1, -0.1, -0.1, -1e-4, 0.2])
+    v_prev = np.array([1.0, 0.0, -0.5, -0.5, 3.0])
+    adt, vmax, dt = 0.01, 2.0, 1e-3
+    out = speed_toward_limit(D, v_prev, dt=dt, two_over_a=2.0 / 10.0, adt=adt, vmax=vmax)
+    assert out[0] == 0.0  # still moving out: stop (harder than amax; the caller reports it)
+    assert out[1] == -adt  # from rest: back within amax
+    assert out[2] == -0.5 - adt  # already coming back: within amax and vmax
+    assert out[3] == -0.1  # no farther than to the limit in one period
+    assert out[4] == braking_speed_any_dt(0.2, dt, 0.2)  # inside: the braking bound (below v_prev − a·dt)
+    no_prev = speed_toward_limit(D, None, dt=dt, two_over_a=0.2, adt=adt, vmax=vmax)
+    assert no_prev[0] == -vmax
+
+
+def test_exact_stopping_distance_while_braking_equals_ruckigs_stop():
+    from ratectl.control.smoothing import stop
+
+    rng = np.random.default_rng(3)
+    for _ in range(60):
+        A, J = rng.uniform(1, 20), rng.uniform(10, 500)
+        a0 = -rng.uniform(0, A)
+        v = rng.uniform(0, 2) if rng.random() < 0.7 else 0.5 * a0 * a0 / J * rng.uniform(0.8, 1.2)
+        tr = stop(np.zeros(1), np.array([v]), qdd=np.array([a0]), amax=A, jmax=J)
+        ts = np.linspace(0.0, tr.duration, 2001)
+        fine = max(tr.at(t)[0][0] for t in ts)  # the farthest point of Ruckig's stop
+        d = float(stopping_distance(v, a0, A, J, exact_when_braking=True))
+        assert d >= fine - 1e-12
+        assert d <= fine + 1e-6 * (1 + fine) + v * tr.duration / 2000  # sampling resolution
+        assert d <= float(stopping_distance(v, a0, A, J)) + 1e-15  # the default over-estimates
