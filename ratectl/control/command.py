@@ -121,7 +121,7 @@ def make_command(*, chain: Chain | None = None, q: ArrayLike | None = None, **fi
     fields, for the lazy `Command.kind`."""
     cmd = object.__new__(Command)
     for name in _OWNED:
-        fields[name].flags.writeable = False
+        fields[name].setflags(write=False)
     fields["task_error"] = read_only(fields["task_error"])  # the solver's: copied unless read-only
     cmd.__dict__.update(fields)
     cmd.__dict__["_chain"] = chain
