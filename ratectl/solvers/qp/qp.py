@@ -21,6 +21,7 @@ from ..base import (
     _check_problem,
     _LazySigma,
     _positive,
+    _SigmaReference,
 )
 from ..damped import DLS
 from ..nullspace import _objective
@@ -122,6 +123,7 @@ class QP(Solver):
         self._wq = None if self._isw is None else 1.0 / self._isw**2
         self._reg: dict[int, np.ndarray] = {}
         self._reg_small: dict[int, bool] = {}  # the regulariser's entries are below 1e300
+        self._sigma_ref = _SigmaReference()  # the last exact σ_min, for sigma_min_at_least
         self._pd = self._lam2 > 0 or (self.objective is not None and self.objective_weight > 0)
         self._dls = DLS(damping=max(self.damping, 1e-6), velocity_policy=None,
                         task_weights=task_weights, joint_weights=joint_weights)
@@ -297,8 +299,10 @@ class QP(Solver):
                                  argument="objective", value=z)
             P = P + self.objective_weight * np.eye(n)
             b = b + self.objective_weight * z
-        # σ_min(W J) from the smaller Gram matrix: JᵀJ, already computed, when n ≤ m
-        return _LazySigma(JtJ if n <= Jw.shape[0] else None, Jw), P, b
+        # σ_min(W J) from the smaller Gram matrix: JᵀJ, already computed, when n ≤ m; an
+        # own copy of J (the caller may reuse its array) for the lazy value and its reference
+        return _LazySigma(JtJ if n <= Jw.shape[0] else None, Jw.copy() if Jw is J else Jw,
+                          self._sigma_ref), P, b
 
     def _shortcut(self, P: np.ndarray, b: np.ndarray, lo: np.ndarray | None, hi: np.ndarray | None,
                   G: np.ndarray | None, h: np.ndarray | None) -> tuple[Any, Any, str, int, float]:
