@@ -123,7 +123,7 @@ def _set_sigma_min(self: Command, value: Any) -> None:  # the dataclass __init__
 # σ_min may be given as the solve result whose (lazily computed) σ_min it is: a control cycle
 # that does not need the value does not pay for an eigen-decomposition (the property reads
 # the field's value from the instance dictionary, where the dataclass keeps it)
-Command.sigma_min = property(_sigma_min, _set_sigma_min,  # type: ignore[assignment, method-assign]
+Command.sigma_min = property(_sigma_min, _set_sigma_min,  # type: ignore[assignment]
                              doc="σ_min(J) of the cycle (see the class docstring).")
 
 
