@@ -15,10 +15,13 @@ machines are shared: ratios vary much less than times).
 Then the governor's plan of the demo's line past the wrist singularity
 (``ratectl.cli.demo.wrist_line``) and a whole ``follow`` run.
 
-Run:  python benchmarks/bench_controller.py [--steps N] [--rounds R] [--clock wall|cpu] [--markdown]
+Run:  python benchmarks/bench_controller.py [--steps N] [--rounds R] [--clock wall|cpu]
+                                            [--markdown | --update-docs] [--no-governor]
 
-``--markdown`` prints the table for docs/benchmarks.md. Targets (issue #17): the QP step
-≤ 0.5 × mink + daqp, and its p99/p50 ≤ 2 over 5,000 calls.
+``--markdown`` prints the table as markdown; ``--update-docs`` also writes it into
+docs/benchmarks.md, between the ``bench_controller.py --update-docs`` markers, with the date,
+the machine and the load. Goals (issue #17): the QP step ≤ 0.5 × mink + daqp, and its
+p99/p50 ≤ 2 over 5,000 calls.
 """
 
 from __future__ import annotations
@@ -30,11 +33,12 @@ import os
 import statistics
 import sys
 import time
+from importlib.metadata import PackageNotFoundError, version
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _timing import CLOCKS  # noqa: E402
+from _timing import CLOCKS, machine, update_docs  # noqa: E402
 
 import ratectl as rc  # noqa: E402
 
@@ -120,6 +124,13 @@ class MinkLoop:
         return times * 1e6, gcc.counts
 
 
+def _version(name: str) -> str:
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return "not installed"
+
+
 def stats(us: np.ndarray) -> tuple[float, float, float]:
     return float(np.median(us)), float(np.percentile(us, 99)), float(us.max())
 
@@ -132,6 +143,8 @@ def main(argv=None) -> None:
                     help="wall: elapsed time per call (default, what a loop sees); cpu: this "
                          "thread's CPU time (leaves out preemption by other processes)")
     ap.add_argument("--markdown", action="store_true", help="print the table as markdown")
+    ap.add_argument("--update-docs", action="store_true",
+                    help="write the table into docs/benchmarks.md (implies --markdown)")
     ap.add_argument("--no-governor", action="store_true", help="skip the governor and follow timings")
     args = ap.parse_args(argv)
     clock = CLOCKS[args.clock]
@@ -188,17 +201,33 @@ def main(argv=None) -> None:
     jit = [float(np.percentile(x[0], 99) / np.median(x[0])) for x in rounds[0]]
     print(f"QP step p99/p50 per round: {' '.join(f'{x:.2f}' for x in jit)} -> median "
           f"{statistics.median(jit):.2f} (target ≤ 2)")
-    if args.markdown:
-        print(f"\n| step of the 1 kHz loop (UR5e, {args.steps} calls, gc enabled) | p50 [µs] | p99 [µs] "
-              "| max [µs] | p99/p50 | gc collections |")
-        print("|---|---|---|---|---|---|")
-        for name, p50, p99, mx, gcs, _ in rows:
-            print(f"| {name} | {p50:.1f} | {p99:.1f} | {mx:.0f} | {p99 / p50:.2f} | {sum(gcs)} |")
-        if ratios:
-            print(f"\nQP step / mink + daqp: best {min(ratios):.2f}, median {statistics.median(ratios):.2f} "
-                  f"of {len(ratios)} alternating rounds; QP p99/p50 median {statistics.median(jit):.2f}.")
+    if args.markdown or args.update_docs:
+        text = markdown(rows, ratios, jit, args)
+        print("\n" + text)
+        if args.update_docs:
+            update_docs("bench_controller.py", text)
     if not args.no_governor:
         governor(arm)
+
+
+def markdown(rows: list, ratios: list[float], jit: list[float], args) -> str:
+    """The measured table as the markdown block of docs/benchmarks.md."""
+    versions = ", ".join(f"{name} {_version(name)}" for name in ("numpy", "mink", "daqp", "mujoco"))
+    out = [f"Measured by `benchmarks/bench_controller.py --clock {args.clock}` on {machine()}; "
+           f"{versions}:", "",
+           f"| step of the 1 kHz loop (UR5e, {args.steps} calls, gc enabled; the round with the "
+           f"median p50 of {args.rounds}) | p50 [µs] | p99 [µs] | max [µs] | p99/p50 | gc collections |",
+           "|---|---|---|---|---|---|"]
+    for name, p50, p99, mx, gcs, _ in rows:
+        out.append(f"| {name} | {p50:.1f} | {p99:.1f} | {mx:.0f} | {p99 / p50:.2f} | {sum(gcs)} |")
+    out.append("")
+    if ratios:
+        out.append(f"QP step / (mink `update` + `solve_ik`, daqp), per round: "
+                   f"{', '.join(f'{x:.2f}' for x in ratios)} — best {min(ratios):.2f}, median "
+                   f"{statistics.median(ratios):.2f} (goal ≤ 0.5).")
+    out.append(f"QP step p99/p50 per round: {', '.join(f'{x:.2f}' for x in jit)} — median "
+               f"{statistics.median(jit):.2f} (goal ≤ 2).")
+    return "\n".join(out) + "\n"
 
 
 def governor(arm) -> None:
