@@ -111,23 +111,46 @@ class Command:
                 f"λ = {self.damping:.3g}, max|q̇| = {float(np.max(np.abs(self.qd))):.3g}]")
 
 
+def _sigma_min(self: Command) -> float:
+    v = self.__dict__["sigma_min"]
+    if not isinstance(v, float):  # the cycle's SolveResult: its σ_min, computed once on first read
+        v = self.__dict__["sigma_min"] = float(v.sigma_min)
+    return v
+
+
+def _set_sigma_min(self: Command, value: Any) -> None:  # the dataclass __init__ (and make_command)
+    self.__dict__["sigma_min"] = value
+
+
+# σ_min may be given as the solve result whose (lazily computed) σ_min it is: a control cycle
+# that does not need the value does not pay for an eigen-decomposition (the property reads
+# the field's value from the instance dictionary, where the dataclass keeps it)
+Command.sigma_min = property(_sigma_min, _set_sigma_min,  # type: ignore[assignment]
+                             doc="σ_min(J) of the cycle (see the class docstring).")
+
+
 _ARRAYS = ("qd", "q_next", "qdd", "error", "twist", "task_error")
 _OWNED = _ARRAYS[:-1]
+_F64 = np.dtype(np.float64)
 
 
 def make_command(*, chain: Chain | None = None, q: ArrayLike | None = None, **fields: Any) -> Command:
     """A `Command` from the controller's freshly computed arrays, which it owns
     (they are made read-only in place, not copied — the controller keeps no reference to
     them): the fast path of one control cycle (the dataclass ``__init__`` costs ~4 µs).
+    ``sigma_min`` may be the cycle's `SolveResult`: its σ_min is then read on first access.
     ``chain`` and ``q`` (the cycle's configuration) are kept, outside the dataclass
     fields, for the lazy `Command.kind`."""
     cmd = object.__new__(Command)
-    for name in _OWNED:
-        fields[name].flags.writeable = False
-    fields["task_error"] = read_only(fields["task_error"])  # the solver's: copied unless read-only
-    cmd.__dict__.update(fields)
-    cmd.__dict__["_chain"] = chain
-    cmd.__dict__["_q"] = q
+    f = fields
+    for a in (f["qd"], f["q_next"], f["qdd"], f["error"], f["twist"]):  # _OWNED
+        a.setflags(write=False)
+    te = f["task_error"]  # the solver's: copied unless read-only
+    if type(te) is not np.ndarray or te.flags.writeable or te.dtype != _F64:
+        f["task_error"] = read_only(te)
+    f["_chain"] = chain
+    f["_q"] = q
+    cmd.__dict__.update(f)
     return cmd
 
 

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from operator import mul as _mul
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -72,6 +73,13 @@ _BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no 
 _NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
 
 
+def _finite_sum(a: np.ndarray) -> bool:
+    """True when the sum of the entries of ``a`` is finite (no NaN, no inf), through a
+    Python list: ~5× cheaper than ``ndarray.sum`` on the few numbers of one cycle."""
+    s = sum(a.ravel().tolist())
+    return s - s == 0.0
+
+
 def _float_array(value, name: str, what: str) -> np.ndarray:
     try:
         return np.asarray(value, dtype=float)
@@ -92,6 +100,7 @@ class _Cycle:
     xi: np.ndarray
     target: bool
     res: Any
+    smin: float | None
     qd: np.ndarray
     qdd: np.ndarray
     q_next: np.ndarray
@@ -108,7 +117,7 @@ class _Cycle:
         self.qdd_ff = None
         self.approach_qd = None
         self.scale = 1.0
-        self.smin = math.nan
+        self.smin = None  # σ_min of the solve, read on demand (`ResolvedRateController._sigma`)
 
 
 def default_solver():
@@ -168,6 +177,7 @@ class ResolvedRateController:
             self._has_p = bool(np.any(np.isfinite(lim.lower) | np.isfinite(lim.upper)))
             big = _BIG
             self._inv_vmax = np.where(np.isfinite(lim.vmax), 1.0 / lim.vmax, 0.0)
+            self._inv_vmax_l = self._inv_vmax.tolist()
             self._inv_amax = np.where(np.isfinite(lim.amax), 1.0 / lim.amax, 0.0)
             # an absent acceleration limit: a joint can stop in one period, so its position
             # limit is enforced by the velocity limit alone (the braking speed is d/dt)
@@ -359,14 +369,16 @@ class ResolvedRateController:
         self._dt_last = dt
         if self._latched:
             return self._halt(q, dt, self._latched)
+        # finiteness through Python float sums (NaN or inf make the sum non-finite; an
+        # overflow to inf of finite values is refused too): cheaper than ndarray.sum
         bad = None
-        if not math.isfinite(q.sum()):
+        if not _finite_sum(q):
             bad = "q"
-        elif target is not None and not math.isfinite(target.sum()):
+        elif target is not None and not _finite_sum(target):
             bad = "target"
-        elif twist is not None and not math.isfinite(twist.sum()):
+        elif twist is not None and not _finite_sum(twist):
             bad = "twist"
-        elif qd_ff is not None and not math.isfinite(qd_ff.sum()):
+        elif qd_ff is not None and not _finite_sum(qd_ff):
             bad = "qd_ff"
         if bad is not None:
             self._latched = f"non-finite {bad} (NaN or inf); reset() to resume"
@@ -428,13 +440,13 @@ class ResolvedRateController:
         except (RatectlError, np.linalg.LinAlgError) as err:
             return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
         qd = res.qd if qd_ff is None else res.qd + qd_ff
-        if not math.isfinite(qd.sum()):
+        if not _finite_sum(qd):
             return self._halt(q, dt, "solver returned a non-finite q̇", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
         cyc.res = res
         cyc.qd = qd
         cyc.active = list(res.limits_active)
         cyc.scale = float(res.velocity_scale)
-        cyc.smin = float(res.sigma_min)
+        cyc.smin = None  # σ_min: read from res only when needed (a QP computes it lazily)
         if res.velocity_policy != "none":
             cyc.flags.append("velocity-scaled")
         return None
@@ -610,7 +622,7 @@ class ResolvedRateController:
             # the solver (the QP, possibly with extra rows such as collision limits) already
             # bounds q̇ by the velocity, position and acceleration limits; limiting again here
             # would move q̇ off its optimum and could break its extra rows
-            cyc.qd, cyc.scale = self._report_solver_limits(cyc.res, cyc.qd, cyc.smin, cyc.flags,
+            cyc.qd, cyc.scale = self._report_solver_limits(cyc, cyc.res, cyc.qd, cyc.flags,
                                                            cyc.reasons, cyc.scale)
             if self._has_p:
                 self._report_solver_recovery(cyc, q, dt)
@@ -618,9 +630,10 @@ class ResolvedRateController:
             self._limit_velocity(cyc)
         if "velocity-scaled" in cyc.flags:
             cyc.reasons.append(f"q̇ scaled by {cyc.scale:.3g} to respect vmax")
-            if cyc.smin < self.singular_sigma:
+            smin = self._sigma(cyc)
+            if smin < self.singular_sigma:
                 cyc.flags.insert(0, "singular")
-                cyc.reasons[-1] = (f"near a singularity (σ_min = {cyc.smin:.3g}) the solver needs "
+                cyc.reasons[-1] = (f"near a singularity (σ_min = {smin:.3g}) the solver needs "
                                    f"{1 / cyc.scale:.3g}× vmax; q̇ scaled by {cyc.scale:.3g}")
         if self._has_a and self.filter is None and not enforcing:
             self._limit_acceleration(cyc, dt)
@@ -632,10 +645,11 @@ class ResolvedRateController:
             cyc.qd, cyc.braking = self._jerk_limited_position_guard(q, cyc.qd, dt, cyc.flags,
                                                                     cyc.reasons, cyc.active, reference)
         res = cyc.res
-        if res.damping > 0.0 and not (enforcing and cyc.smin >= self.singular_sigma):
+        if res.damping > 0.0 and not (enforcing and self._sigma_at_least(cyc, self.singular_sigma)):
             # a QP's λ is a constant regulariser: it is reported only near a singularity
             cyc.flags.append("damped")
-            cyc.reasons.append(f"damped least squares, λ = {res.damping:.3g} (σ_min = {cyc.smin:.3g})")
+            cyc.reasons.append(f"damped least squares, λ = {res.damping:.3g} "
+                               f"(σ_min = {self._sigma(cyc):.3g})")
 
     def _limit_velocity(self, cyc: _Cycle) -> None:
         """Uniform scaling of q̇ into |q̇_i| ≤ vmax_i (keeps the direction of motion)."""
@@ -858,7 +872,8 @@ class ResolvedRateController:
         active = cyc.active
         return make_command(qd=qd, q_next=cyc.q_next, qdd=cyc.qdd.copy(), status=status, flags=flags,
                             reason="; ".join(cyc.reasons), error=cyc.e, position_error=cyc.ep,
-                            orientation_error=cyc.eo, twist=cyc.xi, sigma_min=cyc.smin,
+                            orientation_error=cyc.eo, twist=cyc.xi,
+                            sigma_min=res if cyc.smin is None else cyc.smin,  # lazy: res.sigma_min
                             damping=float(res.damping), task_error=res.task_error,
                             velocity_scale=cyc.scale,
                             limits_active=tuple(dict.fromkeys(active)) if active else (), time=t0,
@@ -920,23 +935,42 @@ class ResolvedRateController:
             clipped = qd  # unchanged: the same array (the approach's acceleration stays valid)
         return clipped, stop_up | stop_lo  # the braking joints stop time-optimally, on their own
 
-    def _report_solver_limits(self, res, qd, smin, flags, reasons, scale):
+    @staticmethod
+    def _sigma(cyc: _Cycle) -> float:
+        """σ_min of the cycle's solve, computed on the first call only."""
+        smin = cyc.smin
+        if smin is None:
+            smin = cyc.smin = float(cyc.res.sigma_min)
+        return smin
+
+    @classmethod
+    def _sigma_at_least(cls, cyc: _Cycle, threshold: float) -> bool:
+        """σ_min ≥ threshold for the cycle's solve: by the result's ``sigma_min_at_least``
+        (a `SolveResult`'s: the QP usually decides it without computing σ_min), else by
+        the value."""
+        at_least = getattr(cyc.res, "sigma_min_at_least", None) if cyc.smin is None else None
+        if at_least is not None:
+            return bool(at_least(threshold))
+        return cls._sigma(cyc) >= threshold
+
+    def _report_solver_limits(self, cyc, res, qd, flags, reasons, scale):
         """Flags and reasons for a solver that enforces the limits itself (the QP): which
         joints sit at which kind of bound, from ``res.bound`` and ``res.limits_active``.
         Only a q̇ beyond vmax by more than rounding (a bound conflict) is scaled back."""
         if self._has_v:
-            r = float((np.abs(qd) * self._inv_vmax).max())
+            r = max(map(abs, map(_mul, qd.tolist(), self._inv_vmax_l)))  # max |q̇_i|/vmax_i
             if r > 1.0 + 1e-9:
                 qd = qd / r
                 scale /= r
                 flags.append("velocity-scaled")
                 reasons.append(f"q̇ scaled by {1 / r:.3g} to respect vmax")
         kinds = res.limits_active
-        joints = np.flatnonzero(res.bound).tolist() if len(res.bound) else []
+        joints = [i for i, held in enumerate(res.bound.tolist()) if held] if kinds else []
         if "position" in kinds:
             flags.insert(0, "joint-limit")
             reasons.insert(0, f"QP: joint(s) {joints} held by a position limit")
         if "velocity" in kinds:
+            smin = self._sigma(cyc)
             if smin < self.singular_sigma:
                 flags.insert(0, "singular")
                 reasons.append(f"near a singularity (σ_min = {smin:.3g}) the QP holds joint(s) "

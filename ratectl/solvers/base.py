@@ -58,30 +58,70 @@ _dgesdd = _lapack.dgesdd
 _dgesv = _lapack.dgesv
 
 
+_hypot = math.hypot
+
+
 # --------------------------------------------------------------------------- limits
 # --------------------------------------------------------------------------- result
+class _SigmaReference:
+    """The last σ_min a solver computed exactly, with a copy of its (weighted) Jacobian: the
+    reference of `_LazySigma.certainly_at_least` (one per solver; the pair is replaced as
+    one tuple, so any pair read is consistent)."""
+
+    __slots__ = ("pair",)
+
+    def __init__(self) -> None:
+        self.pair: tuple[np.ndarray, float, float] | None = None  # (J, σ_min(J), ‖J‖²_F)
+
+
 class _LazySigma:
     """σ_min of J computed on first access from the Gram matrix G (JJᵀ or JᵀJ, the
     smaller), as √λ_min(G): about 1e-8 absolute accuracy near zero, exact enough for
-    reporting and scheduling. Keeps plain DLS free of an eigen-decomposition."""
+    reporting and scheduling. Keeps plain DLS free of an eigen-decomposition.
 
-    __slots__ = ("G", "J")
+    With J and a solver's `_SigmaReference`, "σ_min ≥ threshold" can often be decided
+    without it (`certainly_at_least`), and every exact value becomes the new reference
+    (J must then be the solver's own array, which nobody changes: G and J must agree)."""
 
-    def __init__(self, G: np.ndarray | None, J: np.ndarray | None = None) -> None:
+    __slots__ = ("G", "J", "ref")
+
+    def __init__(self, G: np.ndarray | None, J: np.ndarray | None = None,
+                 ref: _SigmaReference | None = None) -> None:
         self.G = G
         self.J = J
+        self.ref = ref
 
     def value(self) -> float:
         G = self.G
+        J = self.J
         if G is None:
-            J = self.J
             if J is None:  # pragma: no cover - built with G or J
                 return math.nan
             G = J @ J.T if J.shape[0] <= J.shape[1] else J.T @ J
         if G.shape[0] == 0:
             return 0.0
         w, _, info = _dsyev(G, compute_v=0)
-        return math.sqrt(max(float(w[0]), 0.0)) if info == 0 else math.nan
+        s = math.sqrt(max(float(w[0]), 0.0)) if info == 0 else math.nan
+        if self.ref is not None and J is not None and s == s:
+            self.ref.pair = (J, s, _hypot(*J.ravel().tolist()) ** 2)
+        return s
+
+    def certainly_at_least(self, threshold: float) -> bool:
+        """True when σ_min(J) ≥ threshold follows from the reference (J_ref, σ_ref) by
+        Weyl's inequality for singular values, σ_min(J) ≥ σ_ref − ‖J − J_ref‖₂ ≥
+        σ_ref − ‖J − J_ref‖_F, with a margin for the rounding of the eigenvalues
+        (1e-12·(1 + ‖J_ref‖²_F)/threshold); False means "not decided" (compute the value).
+        One subtraction and a norm instead of an eigen-decomposition: the Jacobian of a
+        control loop moves little between cycles."""
+        pair = self.ref.pair if self.ref is not None else None
+        J = self.J
+        if pair is None or J is None or not threshold > 0.0:
+            return False
+        J_ref, s_ref, norm2 = pair
+        if J_ref.shape != J.shape or not s_ref > threshold:
+            return False
+        d = _hypot(*(J - J_ref).ravel().tolist())
+        return s_ref - d >= threshold + 1e-12 * (1.0 + norm2) / threshold
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -95,8 +135,9 @@ class SolveResult:
         damping: damping λ used (0 for undamped solutions; the largest per-direction λ
             for filtered damping).
         sigma_min: smallest singular value of J (of the weighted J for weighted
-            solvers). Fixed-λ DLS computes it on first access (it is not needed for
-            the solution), so reading it costs ~2 µs there.
+            solvers). Fixed-λ DLS and the QP compute it on first access (it is not needed
+            for the solution), so reading it costs ~2 µs there; `sigma_min_at_least`
+            compares it with a threshold, often without computing it.
         method: solver name ("inverse", "pinv", "dls", "adaptive-dls", "sdls", "qp", ...).
         velocity_policy: the velocity-limit policy *applied*: "none", "scaled" or "clipped".
         velocity_scale: the uniform factor applied by "scaled" (1.0 otherwise).
@@ -133,11 +174,11 @@ class SolveResult:
         if bound is None:
             bound = np.zeros(len(qd), dtype=bool)
         for a in (qd, achieved, task_error, bound):
-            a.flags.writeable = False
+            a.setflags(write=False)  # cheaper than the flags object's setter
         if info:
             for v in info.values():
                 if type(v) is np.ndarray:
-                    v.flags.writeable = False
+                    v.setflags(write=False)
         s[0](self, qd)
         s[1](self, achieved)
         s[2](self, task_error)
@@ -150,6 +191,19 @@ class SolveResult:
         s[9](self, limits_active)
         s[10](self, fallback)
         s[11](self, _EMPTY if not info else MappingProxyType(dict(info)))
+
+    def sigma_min_at_least(self, threshold: float) -> bool:
+        """``self.sigma_min >= threshold``, decided without computing σ_min where the
+        solver can certify it (the QP: from its last exactly computed σ_min and how far J
+        moved since, see `SolveResult.sigma_min`); otherwise by computing it. Cheaper than
+        reading ``sigma_min`` when only the comparison is needed (a control cycle's
+        "near a singularity?")."""
+        v = _SIGMA_SLOT.__get__(self, SolveResult)
+        if type(v) is _LazySigma:
+            if v.certainly_at_least(threshold):
+                return True
+            v = _get_sigma(self)
+        return v >= threshold
 
     def __reduce__(self):
         values = {f: getattr(self, f) for f in _FIELDS}
@@ -183,9 +237,10 @@ def _get_sigma(self):
     return v
 
 
+
 # mypy cannot see a slot replaced by a property; the type of the attribute stays float
 SolveResult.sigma_min = property(_get_sigma, _SIGMA_SLOT.__set__,  # type: ignore[misc, assignment]
-                                 doc="σ_min of (weighted) J (computed lazily by DLS).")
+                                 doc="σ_min of (weighted) J (computed lazily by DLS and the QP).")
 
 
 def _make_result(qd, J, xi, damping, sigma, method, policy, scale, bound, active, fallback, info):
@@ -209,15 +264,10 @@ def _check_problem(J, xi):
     if xi.shape != (J.shape[0],):
         raise InputError(f"xi must have shape ({J.shape[0]},) to match J {J.shape}, got {xi.shape}",
                          argument="xi", value=xi)
-    # finiteness through Python float sums: cheaper than np.isfinite and never warns
-    s = sum(J.ravel().tolist()) + sum(xi.tolist())
-    if s - s != 0.0:
-        _check_finite(J, xi)
-    # magnitude: products like JJᵀ must not overflow (|J|, |ξ| up to ~1e145 are accepted)
-    jr = J.ravel()
-    with np.errstate(over="ignore"):
-        s = _dot(jr, jr) + _dot(xi, xi)
-    if not s < _MAX_SQ:
+    # finite, and small enough that products like JJᵀ cannot overflow (|J|, |ξ| up to ~1e145
+    # are accepted): √(‖J‖²_F + ‖ξ‖²) < 1e145, by math.hypot over Python floats in one C
+    # call (it cannot overflow; NaN or inf make it non-finite; cheaper than numpy here)
+    if not _hypot(*J.ravel().tolist(), *xi.tolist()) < _MAX_ENTRY:
         _check_finite(J, xi)
         raise InputError(f"J and xi must have entries below {_MAX_ENTRY:.0e} in magnitude (their "
                          "products overflow floating point); got max |J| = "
@@ -227,7 +277,6 @@ def _check_problem(J, xi):
 
 
 _MAX_ENTRY = 1e145
-_MAX_SQ = _MAX_ENTRY**2
 
 
 def _real_array(name, value, what):

@@ -5,6 +5,9 @@ limits (`joint_velocity_bounds`), with the source of every active bound.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from operator import gt as _gt
+from operator import lt as _lt
+from operator import sub as _sub
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -72,7 +75,8 @@ class _BoundCache:
 
     __slots__ = ("src", "dt", "n", "limits", "vmax", "nvmax", "hi_lim", "lo_lim", "amax_dt",
                  "has_pos", "has_acc", "inv_dt", "lim2", "sgn2", "idx2", "vmax2", "adt", "two_over_a",
-                 "two_over_a2", "two_a", "dstar2", "vmax_l", "amax_dt_l")
+                 "two_over_a2", "two_a", "dstar2", "vmax_l", "amax_dt_l",
+                 "hi_lim_l", "lo_lim_l", "dstar_l")
 
     def __init__(self, src, limits, dt, margin):  # private: the numbers are checked by its callers
         self.src, self.dt = src, dt
@@ -83,6 +87,7 @@ class _BoundCache:
         self.vmax_l = self.vmax.tolist()
         self.hi_lim = np.where(np.isfinite(limits.upper), limits.upper - margin, _BIG)
         self.lo_lim = np.where(np.isfinite(limits.lower), limits.lower + margin, -_BIG)
+        self.hi_lim_l, self.lo_lim_l = self.hi_lim.tolist(), self.lo_lim.tolist()
         afin = np.isfinite(limits.amax)
         a = np.where(afin, limits.amax, 1e200)
         self.two_a = 2.0 * a
@@ -97,7 +102,7 @@ class _BoundCache:
         if dt is None:
             self.amax_dt = self.inv_dt = self.adt = None
             self.amax_dt_l = None
-            self.dstar2 = None
+            self.dstar2 = self.dstar_l = None
         else:
             tiny = afin & ~(a * dt * dt >= 1e-290)
             if tiny.any():
@@ -119,6 +124,7 @@ class _BoundCache:
             dstar = np.where((limits.vmax < _BIG) & np.isfinite(dstar), dstar * (1.0 + 1e-9) + 1e-12,
                              np.inf)
             self.dstar2 = np.concatenate([dstar, dstar])
+            self.dstar_l = dstar.tolist()
         for arr in (self.vmax, self.nvmax):  # returned as the box when no other bound acts
             arr.setflags(write=False)
 
@@ -127,8 +133,13 @@ def _box(bc: _BoundCache, q, qd_prev):
     """Fast path of `_bounds`: (lo, hi, conflicts) without the sources."""
     n = bc.n
     if q is not None and bc.has_pos and bc.inv_dt is not None:
-        D = bc.lim2 - q[bc.idx2] * bc.sgn2
-        if (D < bc.dstar2).any():  # some joint is near a limit
+        # some joint is near a limit: the room to it, D = [upper − q; q − lower], is below
+        # the braking distance from full speed (on Python floats: the same subtractions,
+        # cheaper than numpy on a few numbers)
+        ql = q.tolist()
+        if (any(map(_lt, map(_sub, bc.hi_lim_l, ql), bc.dstar_l))
+                or any(map(_lt, map(_sub, ql, bc.lo_lim_l), bc.dstar_l))):
+            D = bc.lim2 - q[bc.idx2] * bc.sgn2
             if (D < 0.0).any():
                 return _careful(bc, q, qd_prev)  # beyond a limit: the careful path
             U = np.minimum(braking_speed_any_dt(D, bc.dt, bc.two_over_a2), bc.vmax2)
@@ -145,7 +156,7 @@ def _box(bc: _BoundCache, q, qd_prev):
     if qd_prev is not None and bc.amax_dt is not None and bc.has_acc:
         nlo = np.maximum(lo, qd_prev - bc.amax_dt)
         nhi = np.minimum(hi, qd_prev + bc.amax_dt)
-        if float((nhi - nlo).min()) < 0.0:
+        if any(map(_gt, nlo.tolist(), nhi.tolist())):
             return _careful(bc, q, qd_prev)
         lo, hi = nlo, nhi
     return lo, hi, ()

@@ -5,6 +5,7 @@ velocity and acceleration bounds and extra inequality rows.
 from __future__ import annotations
 
 import math
+from operator import sub as _sub
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -20,6 +21,7 @@ from ..base import (
     _check_problem,
     _LazySigma,
     _positive,
+    _SigmaReference,
 )
 from ..damped import DLS
 from ..nullspace import _objective
@@ -121,6 +123,8 @@ class QP(Solver):
         self._lam2 = self.damping**2
         self._wq = None if self._isw is None else 1.0 / self._isw**2
         self._reg: dict[int, np.ndarray] = {}
+        self._reg_small: dict[int, bool] = {}  # the regulariser's entries are below 1e300
+        self._sigma_ref = _SigmaReference()  # the last exact σ_min, for sigma_min_at_least
         self._pd = self._lam2 > 0 or (self.objective is not None and self.objective_weight > 0)
         self._dls = DLS(damping=max(self.damping, 1e-6), velocity_policy=None,
                         task_weights=task_weights, joint_weights=joint_weights)
@@ -169,7 +173,7 @@ class QP(Solver):
         J, xi = _check_problem(J, xi)
         n = J.shape[1]
         qv, qd_prev_v, qd_ff_v, dt_v = self._check_state(q, qd_prev, qd_ff, dt, n)
-        Jw, P, b = self._objective_terms(J, xi, qv)
+        sigma, P, b = self._objective_terms(J, xi, qv)
         conflicts: tuple = ()
         bc: _BoundCache | None = None
         lo = hi = lo_t = hi_t = None
@@ -220,7 +224,7 @@ class QP(Solver):
         if G is not None and h is not None:
             info["extra_active"] = _dot(G, qd) >= h - self.tolerance
         return SolveResult(qd=qd, achieved=achieved, task_error=task_error, damping=self.damping,
-                           sigma_min=_LazySigma(None, Jw), method=self.method, bound=bound,
+                           sigma_min=sigma, method=self.method, bound=bound,
                            limits_active=active, info=info)
 
     # ------------------------------------------------------------------ stages of solve
@@ -249,9 +253,9 @@ class QP(Solver):
         return qv, qd_prev_v, qd_ff_v, dt
 
     def _objective_terms(self, J: np.ndarray, xi: np.ndarray,
-                         q: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(weighted J, P, b) of the objective ½‖W(Jq̇ − ξ)‖² + ½λ²q̇ᵀW_q q̇ (+ ½μ‖q̇ − z‖²)
-        = ½q̇ᵀPq̇ − bᵀq̇."""
+                         q: np.ndarray | None) -> tuple[_LazySigma, np.ndarray, np.ndarray]:
+        """(σ_min of the weighted J, computed on first access; P; b) of the objective
+        ½‖W(Jq̇ − ξ)‖² + ½λ²q̇ᵀW_q q̇ (+ ½μ‖q̇ − z‖²) = ½q̇ᵀPq̇ − bᵀq̇."""
         m, n = J.shape
         if self._rows is not None:
             rows, mw = self._rows
@@ -269,13 +273,23 @@ class QP(Solver):
                                  "columns", argument="joint_weights", value=self.joint_weights)
             d = np.full(n, self._lam2) if self._wq is None else self._lam2 * self._wq
             reg = self._reg[n] = np.diag(d)
-        with np.errstate(over="ignore", invalid="ignore"):
-            P = _dot(Jw.T, Jw) + reg
+            self._reg_small[n] = bool(np.all(d < 1e300))
+        if self._rows is None and self._reg_small[n]:
+            # unweighted J, checked by _check_problem: ‖J‖²_F + ‖ξ‖² < 1e290 bounds every
+            # entry of JᵀJ and Jᵀξ by 1e290 (Cauchy–Schwarz), so P and b are finite and the
+            # products cannot overflow (no floating-point state to set, no check to make)
+            JtJ = _dot(Jw.T, Jw)
+            P = JtJ + reg
             b = _dot(xiw, Jw)
-        t = sum(P.ravel().tolist()) + sum(b.tolist())
-        if t - t != 0.0:
-            raise InputError("QP: JᵀJ or Jᵀξ overflows (|J| and |ξ| must stay below ~1e150); "
-                             "the problem is outside floating-point range", argument="J", value=J)
+        else:
+            with np.errstate(over="ignore", invalid="ignore"):
+                JtJ = _dot(Jw.T, Jw)
+                P = JtJ + reg
+                b = _dot(xiw, Jw)
+            t = sum(P.ravel().tolist()) + sum(b.tolist())
+            if t - t != 0.0:
+                raise InputError("QP: JᵀJ or Jᵀξ overflows (|J| and |ξ| must stay below ~1e150); "
+                                 "the problem is outside floating-point range", argument="J", value=J)
         if self.objective is not None:
             if q is None:
                 raise InputError("QP with an objective needs q= (the joint positions)", argument="q",
@@ -286,7 +300,10 @@ class QP(Solver):
                                  argument="objective", value=z)
             P = P + self.objective_weight * np.eye(n)
             b = b + self.objective_weight * z
-        return Jw, P, b
+        # σ_min(W J) from the smaller Gram matrix: JᵀJ, already computed, when n ≤ m; an
+        # own copy of J (the caller may reuse its array) for the lazy value and its reference
+        return _LazySigma(JtJ if n <= Jw.shape[0] else None, Jw.copy() if Jw is J else Jw,
+                          self._sigma_ref), P, b
 
     def _shortcut(self, P: np.ndarray, b: np.ndarray, lo: np.ndarray | None, hi: np.ndarray | None,
                   G: np.ndarray | None, h: np.ndarray | None) -> tuple[Any, Any, str, int, float]:
@@ -302,8 +319,8 @@ class QP(Solver):
             return qd, held, status, niter, slack
         lists = None
         if lo is not None and hi is not None:
-            lists = (x0.tolist(), lo.tolist(), hi.tolist())
-            slack = min(min(u - x, x - lv) for x, lv, u in zip(*lists, strict=True))
+            lists = x0l, lol, hil = (x0.tolist(), lo.tolist(), hi.tolist())
+            slack = min(min(map(_sub, hil, x0l)), min(map(_sub, x0l, lol)))
         if slack >= 0.0 and (G is None or h is None or bool(np.all(_dot(G, x0) <= h))):
             return x0, None, "unconstrained", 0, slack
         if G is None and lo is not None and hi is not None and self.backend == "osqp":

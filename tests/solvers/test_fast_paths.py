@@ -1,0 +1,110 @@
+"""The cheap paths of a control step give the same answers as the plain computations:
+σ_min certified by the solver's last exact value, the KKT measure on Python floats, the
+input checks on Python floats."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import ratectl as rc
+from ratectl import solvers as S
+from ratectl.errors import InputError
+from ratectl.solvers.base import _SIGMA_SLOT, SolveResult, _LazySigma
+from ratectl.solvers.qp.active_set import kkt_violation
+
+
+def _kkt_reference(P, b, lo, hi, x):
+    """The KKT measure of `kkt_violation`, written with numpy arrays (its definition)."""
+    scale = 1.0 + np.max(np.abs(b)) + np.max(np.abs(P)) * np.max(np.abs(x))
+    feas = np.max(np.maximum(np.maximum(lo - x, x - hi), 0.0))
+    g = P @ x - b
+    eps = 1e-12 * (1.0 + np.abs(x))
+    at_hi = x >= hi - eps
+    at_lo = (x <= lo + eps) & ~at_hi
+    gv = np.where(at_hi, np.maximum(g, 0.0), np.where(at_lo, np.maximum(-g, 0.0), np.abs(g)))
+    gv = np.where(np.maximum(hi - lo, 0.0) <= eps, 0.0, gv)
+    return max(feas / (1.0 + np.max(np.abs(x))), np.max(gv) / scale)
+
+
+def test_kkt_violation_equals_its_definition_bit_for_bit():
+    rng = np.random.default_rng(7)
+    for _ in range(3000):
+        n = int(rng.integers(1, 9))
+        A = rng.normal(size=(n, n))
+        P = A.T @ A + rng.uniform(0.0, 1.0) * np.eye(n)
+        b = rng.normal(size=n) * 10 ** rng.uniform(-3, 3)
+        lo, hi = -rng.uniform(0, 2, n), rng.uniform(0, 2, n)
+        kind = int(rng.integers(0, 3))
+        if kind == 1:
+            lo[0] = hi[0]  # a fixed joint
+        elif kind == 2:
+            lo[:] = -1e15  # absent lower bounds
+        x = np.clip(rng.normal(size=n), lo - rng.uniform(0, 1e-9, n), hi + rng.uniform(0, 1e-9, n))
+        i = int(rng.integers(n))
+        x[i] = hi[i] if rng.random() < 0.5 else lo[i]  # one joint exactly at a bound
+        assert kkt_violation(P, b, lo, hi, x) == _kkt_reference(P, b, lo, hi, x)
+    assert kkt_violation(np.eye(2), np.ones(2), -np.ones(2), np.ones(2), np.array([np.nan, 0.0])) == math.inf
+
+
+def test_sigma_min_at_least_is_the_comparison_of_the_value_along_a_singular_crossing(ur5e_wrist_line):
+    """The QP certifies σ_min ≥ t from its last exact σ_min (Weyl): along a line through the
+    wrist singularity, for thresholds around σ_min, the certificate never says yes when the
+    exact value says no, and it answers most steps without the eigenvalues."""
+    arm, line, q0 = ur5e_wrist_line
+    qp = S.QP()
+    run = rc.follow(arm, line, q0, dt=2e-3)
+    thresholds = (1e-4, 0.01, 0.02, 0.05, 0.2)
+    certified = 0
+    for q in run.q[::3]:
+        J = arm.jacobian(q)
+        exact = rc.analyze(arm, q).sigma_min
+        for t in thresholds:
+            res = qp.solve(J, np.zeros(6), limits=arm, q=q, dt=2e-3)
+            answer = res.sigma_min_at_least(t)
+            assert answer == (res.sigma_min >= t)
+            assert res.sigma_min == pytest.approx(exact, rel=1e-9, abs=1e-7)
+            fresh = qp.solve(J, np.zeros(6), limits=arm, q=q, dt=2e-3)
+            lazy = _SIGMA_SLOT.__get__(fresh, SolveResult)
+            if type(lazy) is _LazySigma and lazy.certainly_at_least(t):
+                certified += 1
+                assert exact >= t
+    assert certified > 0
+
+
+def test_qp_controller_flags_damped_exactly_below_singular_sigma(ur5e_wrist_line):
+    """A QP's λ is reported ("damped") exactly when σ_min < singular_sigma, whether the
+    controller certified σ_min or computed it, and Command.sigma_min is the exact value."""
+    arm, line, q0 = ur5e_wrist_line
+    run = rc.follow(arm, line, q0, dt=2e-3)
+    ctrl = rc.ResolvedRateController(arm, solver=S.QP(), singular_sigma=0.05)
+    seen = set()
+    for q in run.q:
+        cmd = ctrl.step(q, twist=np.array([0.0, 0.05, 0.0, 0.0, 0.0, 0.0]), dt=2e-3)
+        below = cmd.sigma_min < ctrl.singular_sigma
+        assert ("damped" in cmd.flags) == below
+        assert cmd.sigma_min == pytest.approx(rc.analyze(arm, q).sigma_min, rel=1e-9, abs=1e-7)
+        seen.add(below)
+    assert seen == {True, False}  # the line crosses the threshold both ways
+
+
+@pytest.mark.parametrize("solver", [S.DLS(damping=0.05), S.QP(), S.AdaptiveDLS()])
+def test_the_input_checks_refuse_what_they_refused(solver):
+    J = rc.robots.ur5e().jacobian(np.array([0.3, -1.2, 1.5, -1.9, -1.4, 0.6]))
+    xi = np.full(6, 0.1)
+    for bad in (np.nan, np.inf, -np.inf):
+        Jb = J.copy()
+        Jb[2, 3] = bad
+        with pytest.raises(InputError, match="J must be finite"):
+            solver.solve(Jb, xi)
+        xb = xi.copy()
+        xb[4] = bad
+        with pytest.raises(InputError, match="xi must be finite"):
+            solver.solve(J, xb)
+    with pytest.raises(InputError, match="entries below"):
+        solver.solve(J * 1e146, xi)
+    with pytest.raises(InputError, match="entries below"):
+        solver.solve(J, xi * 1e146)
+    solver.solve(J * 1e140, xi)  # large but within range: accepted
