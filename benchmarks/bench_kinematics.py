@@ -36,7 +36,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _timing import median_s, median_us  # noqa: E402
+from _timing import machine, median_s, median_us, update_docs  # noqa: E402
 
 import ratectl as rc  # noqa: E402
 
@@ -148,22 +148,11 @@ def growth(clock: str, quick: bool, rng) -> list:
 
 def markdown(runs: dict, rows: list, clock: str) -> str:
     """The measured tables as the markdown block of docs/benchmarks.md."""
-    import datetime
-    import platform
-
     import pinocchio
 
-    load = ", ".join(f"{x:.1f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "n/a"
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    out = [f"Measured by `benchmarks/bench_kinematics.py` on "
-           f"{datetime.date.today().isoformat()} ({cpu}, {os.cpu_count()} cores, load average "
-           f"{load} at the end; numpy {np.__version__}, pinocchio {pinocchio.__version__}; "
-           f"{clock} clock):", "",
+    where = machine()[:-1]  # "date (cpu, cores, load; Python x" without its closing parenthesis
+    out = [f"Measured by `benchmarks/bench_kinematics.py` on {where}; numpy {np.__version__}, "
+           f"pinocchio {pinocchio.__version__}; {clock} clock):", "",
            "| UR5e `fk_jacobian` | rounds | ratectl | Pinocchio | ratio: best | ratio: median |",
            "|---|---|---|---|---|---|"]
     for B, rs in runs.items():
@@ -183,23 +172,6 @@ def markdown(runs: dict, rows: list, clock: str) -> str:
     for n, r1, r2, _us, _pus, rate, prate in rows:
         out.append(f"| {n} | {r1:.2f}× | {r2:.1f}× | {rate / 1e6:.2f} | {prate / 1e6:.2f} |")
     return "\n".join(out) + "\n"
-
-
-DOCS_BEGIN = "<!-- bench_kinematics.py --update-docs: begin -->"
-DOCS_END = "<!-- bench_kinematics.py --update-docs: end -->"
-
-
-def update_docs(text: str, path: str) -> None:
-    """Replace the block between the markers in ``path`` (docs/benchmarks.md) with ``text``."""
-    with open(path, encoding="utf-8") as f:
-        doc = f.read()
-    head, sep, rest = doc.partition(DOCS_BEGIN)
-    _old, sep2, tail = rest.partition(DOCS_END)
-    if not sep or not sep2:
-        raise SystemExit(f"{path} has no {DOCS_BEGIN} … {DOCS_END} block")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(f"{head}{DOCS_BEGIN}\n{text}{DOCS_END}{tail}")
-    print(f"wrote the tables into {path}")
 
 
 def profile(clock: str) -> None:
@@ -360,7 +332,7 @@ def main(argv=None) -> None:
             text = markdown(runs, rows, args.clock)
             print("\n" + text)
             if args.update_docs:
-                update_docs(text, os.path.join(os.path.dirname(__file__), "..", "docs", "benchmarks.md"))
+                update_docs("bench_kinematics.py", text)
     print(f"{'arm':14s} {'fk_jacobian µs':>15s} {'fk+jacobian µs':>15s} "
           f"{'batch 1e4 /s':>13s} {'batch 1e5 /s':>13s}")
     sizes = (10_000,) if args.quick else (10_000, 100_000)
