@@ -37,7 +37,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from operator import gt as _gt
+from operator import lt as _lt
 from operator import mul as _mul
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -78,6 +81,19 @@ def _finite_sum(a: np.ndarray) -> bool:
     Python list: ~5× cheaper than ``ndarray.sum`` on the few numbers of one cycle."""
     s = sum(a.ravel().tolist())
     return s - s == 0.0
+
+
+def _info(res: Any) -> Mapping[str, Any]:
+    """The ``info`` mapping of a solve result (a `SolveResult` keeps a read-only
+    ``MappingProxyType``, recognised by its exact type first: cheaper than the ABC check),
+    or an empty one when a solver gave something else."""
+    info = res.info
+    if type(info) is MappingProxyType or isinstance(info, Mapping):
+        return info
+    return _NO_INFO
+
+
+_NO_INFO: Mapping[str, Any] = MappingProxyType({})
 
 
 def _float_array(value, name: str, what: str) -> np.ndarray:
@@ -187,6 +203,7 @@ class ResolvedRateController:
             self._amax_f2 = np.concatenate([self._amax_f, self._amax_f])
             self._plo = np.where(np.isfinite(lim.lower), lim.lower, -big)
             self._phi = np.where(np.isfinite(lim.upper), lim.upper, big)
+            self._plo_l, self._phi_l = self._plo.tolist(), self._phi.tolist()
             vf = np.where(np.isfinite(lim.vmax), lim.vmax, big)
             # distance within which a joint at full speed may need to brake (per side, so a
             # one-sided limit is watched too): v²/(2a), 0 without an acceleration limit; the
@@ -728,10 +745,12 @@ class ResolvedRateController:
         """``limit-recovery`` for a limit-enforcing solver: its box resolved a conflict of
         the acceleration bound against the position bound (``info["conflicts"]``, the
         position side won), or a joint is measured beyond a position limit."""
-        info = cyc.res.info
-        conflicts = info.get("conflicts", ()) if isinstance(info, Mapping) else ()
-        if not conflicts and not ((q > self._phi).any() or (q < self._plo).any()):
-            return
+        conflicts = _info(cyc.res).get("conflicts", ())
+        if not conflicts:
+            # a joint beyond a limit? (on Python floats: cheaper than two numpy comparisons)
+            ql = q.tolist()
+            if not (any(map(_gt, ql, self._phi_l)) or any(map(_lt, ql, self._plo_l))):
+                return
         hard = np.zeros(self._n, dtype=bool)
         for joint, kinds in conflicts:
             if "acceleration" in kinds:
@@ -981,8 +1000,7 @@ class ResolvedRateController:
         if "acceleration" in kinds:
             flags.append("acceleration-limited")
             reasons.append(f"QP: joint(s) {joints} at the acceleration bound")
-        # (info is a read-only Mapping, not a dict)
-        extra = res.info.get("extra_active") if isinstance(res.info, Mapping) else None
+        extra = _info(res).get("extra_active")
         if extra is not None and np.any(extra):
             reasons.append(f"{int(np.count_nonzero(extra))} extra constraint row(s) active "
                            "(e.g. collision avoidance)")
