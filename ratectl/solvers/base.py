@@ -61,17 +61,21 @@ _dgesv = _lapack.dgesv
 _hypot = math.hypot
 
 
+_dist = math.dist
+
+
 # --------------------------------------------------------------------------- limits
 # --------------------------------------------------------------------------- result
 class _SigmaReference:
-    """The last σ_min a solver computed exactly, with a copy of its (weighted) Jacobian: the
+    """The last σ_min a solver computed exactly, with its (weighted) Jacobian's entries: the
     reference of `_LazySigma.certainly_at_least` (one per solver; the pair is replaced as
     one tuple, so any pair read is consistent)."""
 
     __slots__ = ("pair",)
 
     def __init__(self) -> None:
-        self.pair: tuple[np.ndarray, float, float] | None = None  # (J, σ_min(J), ‖J‖²_F)
+        # (the entries of J row by row as Python floats, J's shape, σ_min(J), ‖J‖²_F)
+        self.pair: tuple[list[float], tuple[int, ...], float, float] | None = None
 
 
 class _LazySigma:
@@ -79,22 +83,26 @@ class _LazySigma:
     smaller), as √λ_min(G): about 1e-8 absolute accuracy near zero, exact enough for
     reporting and scheduling. Keeps plain DLS free of an eigen-decomposition.
 
-    With J and a solver's `_SigmaReference`, "σ_min ≥ threshold" can often be decided
-    without it (`certainly_at_least`), and every exact value becomes the new reference
-    (J must then be the solver's own array, which nobody changes: G and J must agree)."""
+    With J's shape and entries (``entries``, row by row as Python floats: a list, which
+    nobody changes) and a solver's `_SigmaReference`, "σ_min ≥ threshold" can often be
+    decided without it (`certainly_at_least`), and every exact value becomes the new
+    reference. Without G, J (an array the solver owns) gives it."""
 
-    __slots__ = ("G", "J", "ref")
+    __slots__ = ("G", "J", "ref", "shape", "entries")
 
     def __init__(self, G: np.ndarray | None, J: np.ndarray | None = None,
-                 ref: _SigmaReference | None = None) -> None:
+                 ref: _SigmaReference | None = None, *, shape: tuple[int, ...] | None = None,
+                 entries: list[float] | None = None) -> None:
         self.G = G
         self.J = J
         self.ref = ref
+        self.shape = shape
+        self.entries = entries
 
     def value(self) -> float:
         G = self.G
-        J = self.J
         if G is None:
+            J = self.J
             if J is None:  # pragma: no cover - built with G or J
                 return math.nan
             G = J @ J.T if J.shape[0] <= J.shape[1] else J.T @ J
@@ -102,8 +110,9 @@ class _LazySigma:
             return 0.0
         w, _, info = _dsyev(G, compute_v=0)
         s = math.sqrt(max(float(w[0]), 0.0)) if info == 0 else math.nan
-        if self.ref is not None and J is not None and s == s:
-            self.ref.pair = (J, s, _hypot(*J.ravel().tolist()) ** 2)
+        entries = self.entries
+        if self.ref is not None and entries is not None and self.shape is not None and s == s:
+            self.ref.pair = (entries, self.shape, s, _hypot(*entries) ** 2)
         return s
 
     def certainly_at_least(self, threshold: float) -> bool:
@@ -111,17 +120,17 @@ class _LazySigma:
         Weyl's inequality for singular values, σ_min(J) ≥ σ_ref − ‖J − J_ref‖₂ ≥
         σ_ref − ‖J − J_ref‖_F, with a margin for the rounding of the eigenvalues
         (1e-12·(1 + ‖J_ref‖²_F)/threshold); False means "not decided" (compute the value).
-        One subtraction and a norm instead of an eigen-decomposition: the Jacobian of a
-        control loop moves little between cycles."""
+        One distance between two lists of floats instead of an eigen-decomposition: the
+        Jacobian of a control loop moves little between cycles."""
         pair = self.ref.pair if self.ref is not None else None
-        J = self.J
-        if pair is None or J is None or not threshold > 0.0:
+        entries = self.entries
+        if pair is None or entries is None or not threshold > 0.0:
             return False
-        J_ref, s_ref, norm2 = pair
-        if J_ref.shape != J.shape or not s_ref > threshold:
+        ref_entries, ref_shape, s_ref, norm2 = pair
+        if ref_shape != self.shape or not s_ref > threshold:
             return False
-        d = _hypot(*(J - J_ref).ravel().tolist())
-        return s_ref - d >= threshold + 1e-12 * (1.0 + norm2) / threshold
+        # ‖J − J_ref‖_F: math.dist is the hypot of the differences
+        return s_ref - _dist(entries, ref_entries) >= threshold + 1e-12 * (1.0 + norm2) / threshold
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -252,6 +261,8 @@ def _make_result(qd, J, xi, damping, sigma, method, policy, scale, bound, active
 
 # --------------------------------------------------------------------------- helpers
 def _check_problem(J, xi):
+    """(J, ξ, the entries of J row by row as Python floats) after the checks of shape,
+    type, finiteness and range; raises `InputError`."""
     if type(J) is not np.ndarray or J.dtype != _F64:
         J = _real_array("J", J, "a numeric (m, n) matrix")
     if type(xi) is not np.ndarray or xi.dtype != _F64:
@@ -267,13 +278,14 @@ def _check_problem(J, xi):
     # finite, and small enough that products like JJᵀ cannot overflow (|J|, |ξ| up to ~1e145
     # are accepted): √(‖J‖²_F + ‖ξ‖²) < 1e145, by math.hypot over Python floats in one C
     # call (it cannot overflow; NaN or inf make it non-finite; cheaper than numpy here)
-    if not _hypot(*J.ravel().tolist(), *xi.tolist()) < _MAX_ENTRY:
+    entries = J.ravel().tolist()
+    if not _hypot(*entries, *xi.tolist()) < _MAX_ENTRY:
         _check_finite(J, xi)
         raise InputError(f"J and xi must have entries below {_MAX_ENTRY:.0e} in magnitude (their "
                          "products overflow floating point); got max |J| = "
                          f"{float(np.max(np.abs(J))):.3g}, max |xi| = {float(np.max(np.abs(xi))):.3g}",
                          argument="J", value=J)
-    return J, xi
+    return J, xi, entries
 
 
 _MAX_ENTRY = 1e145
@@ -438,7 +450,7 @@ class Solver:
             q, qd_prev, dt: current joint positions, previous joint velocities and the
                 step [s]; used by the QP and by `NullSpace` (``q``).
         """
-        J, xi = _check_problem(J, xi)
+        J, xi, _ = _check_problem(J, xi)
         n = J.shape[1]
         try:
             if self._weighted:

@@ -138,7 +138,7 @@ class NullSpace(Solver):
               q: ArrayLike | None = None, qd_prev: ArrayLike | None = None,
               dt: float | None = None) -> SolveResult:
         """As `Solver.solve`; ``q`` (n,) is required for the objective."""
-        J, xi = _check_problem(J, xi)
+        J, xi, _ = _check_problem(J, xi)
         m, n = J.shape
         if q is None:
             raise InputError("NullSpace.solve needs q= (the joint positions) for its secondary "

@@ -170,10 +170,10 @@ class QP(Solver):
             bound that hold q̇ and ``info`` = status, iterations, backend, the box
             (``lower``, ``upper``) and any ``conflicts`` resolved by priority.
         """
-        J, xi = _check_problem(J, xi)
+        J, xi, entries = _check_problem(J, xi)
         n = J.shape[1]
         qv, qd_prev_v, qd_ff_v, dt_v = self._check_state(q, qd_prev, qd_ff, dt, n)
-        sigma, P, b = self._objective_terms(J, xi, qv)
+        sigma, P, b = self._objective_terms(J, xi, qv, entries)
         conflicts: tuple = ()
         bc: _BoundCache | None = None
         lo = hi = lo_t = hi_t = None
@@ -252,10 +252,11 @@ class QP(Solver):
         qd_ff_v = None if qd_ff is None else _vec("qd_ff", qd_ff, n)
         return qv, qd_prev_v, qd_ff_v, dt
 
-    def _objective_terms(self, J: np.ndarray, xi: np.ndarray,
-                         q: np.ndarray | None) -> tuple[_LazySigma, np.ndarray, np.ndarray]:
+    def _objective_terms(self, J: np.ndarray, xi: np.ndarray, q: np.ndarray | None,
+                         entries: list[float]) -> tuple[_LazySigma, np.ndarray, np.ndarray]:
         """(σ_min of the weighted J, computed on first access; P; b) of the objective
-        ½‖W(Jq̇ − ξ)‖² + ½λ²q̇ᵀW_q q̇ (+ ½μ‖q̇ − z‖²) = ½q̇ᵀPq̇ − bᵀq̇."""
+        ½‖W(Jq̇ − ξ)‖² + ½λ²q̇ᵀW_q q̇ (+ ½μ‖q̇ − z‖²) = ½q̇ᵀPq̇ − bᵀq̇; ``entries`` are
+        J's, row by row (from `_check_problem`)."""
         m, n = J.shape
         if self._rows is not None:
             rows, mw = self._rows
@@ -300,10 +301,15 @@ class QP(Solver):
                                  argument="objective", value=z)
             P = P + self.objective_weight * np.eye(n)
             b = b + self.objective_weight * z
-        # σ_min(W J) from the smaller Gram matrix: JᵀJ, already computed, when n ≤ m; an
-        # own copy of J (the caller may reuse its array) for the lazy value and its reference
-        return _LazySigma(JtJ if n <= Jw.shape[0] else None, Jw.copy() if Jw is J else Jw,
-                          self._sigma_ref), P, b
+        # σ_min(W J) from the smaller Gram matrix: JᵀJ, already computed, when n ≤ m, else
+        # from an own copy of J (the caller may reuse its array); W J's entries (a list, as
+        # the input check read them) for the certificate and its reference
+        if Jw is not J:
+            entries = Jw.ravel().tolist()
+        if n <= Jw.shape[0]:
+            return _LazySigma(JtJ, None, self._sigma_ref, shape=Jw.shape, entries=entries), P, b
+        return _LazySigma(None, Jw.copy() if Jw is J else Jw, self._sigma_ref, shape=Jw.shape,
+                          entries=entries), P, b
 
     def _shortcut(self, P: np.ndarray, b: np.ndarray, lo: np.ndarray | None, hi: np.ndarray | None,
                   G: np.ndarray | None, h: np.ndarray | None) -> tuple[Any, Any, str, int, float]:
