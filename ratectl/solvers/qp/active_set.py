@@ -67,7 +67,7 @@ def _box_active_set(P, b, lo, hi, x0, max_iter: int = 4, lists=None):
             if info != 0:
                 return None, None, it
             coef = c.tolist()
-            x = x0 - _dot(cols, c)
+            x = x0 - cols.dot(c)
         for i, f in zip(A, fix, strict=True):
             x[i] = f  # held joints sit exactly on their bound
         xl = x.tolist()
@@ -180,7 +180,7 @@ def kkt_violation(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
     if not x.size:
         return 0.0
     xl = x.tolist()
-    gl = (_dot(P, x) - b).tolist()  # the gradient g = Px − b
+    gl = (P.dot(x) - b).tolist()  # the gradient g = Px − b
     ax = max(map(abs, xl))
     scale = 1.0 + max(map(abs, b.tolist())) + max(map(abs, P.ravel().tolist())) * ax
     t = scale + sum(gl)

@@ -20,6 +20,7 @@ from ..base import (
     _check_finite,
     _check_problem,
     _LazySigma,
+    _owned_result,
     _positive,
     _SigmaReference,
 )
@@ -207,7 +208,7 @@ class QP(Solver):
                     raise err
                 return self._fallback_result(J, xi, lo if lo is not None else np.full(n, -_BIG),
                                              hi if hi is not None else np.full(n, _BIG), err)
-        achieved = _dot(J, qd)
+        achieved = J.dot(qd)
         task_error = xi - achieved
         e = sum(task_error.tolist())
         if e - e != 0.0:
@@ -217,15 +218,18 @@ class QP(Solver):
         bound, active = self._bound_sources(qd, held, lo, hi, lo_t, hi_t, bc, qd_prev_v, slack)
         info: dict[str, Any] = {"status": status, "iterations": niter, "backend": self.backend,
                                 "lower": lo, "upper": hi}
+        if lo is not None and hi is not None:
+            lo.setflags(write=False)
+            hi.setflags(write=False)
         if certified is not None:
             info["certified"] = certified
         if conflicts:
             info["conflicts"] = conflicts
         if G is not None and h is not None:
-            info["extra_active"] = _dot(G, qd) >= h - self.tolerance
-        return SolveResult(qd=qd, achieved=achieved, task_error=task_error, damping=self.damping,
-                           sigma_min=sigma, method=self.method, bound=bound,
-                           limits_active=active, info=info)
+            info["extra_active"] = extra = G.dot(qd) >= h - self.tolerance
+            extra.setflags(write=False)
+        return _owned_result(qd, achieved, task_error, self.damping, sigma, self.method, bound, active,
+                             info)
 
     # ------------------------------------------------------------------ stages of solve
     def _check_state(self, q: ArrayLike | None, qd_prev: ArrayLike | None, qd_ff: ArrayLike | None,
@@ -279,14 +283,14 @@ class QP(Solver):
             # unweighted J, checked by _check_problem: ‖J‖²_F + ‖ξ‖² < 1e290 bounds every
             # entry of JᵀJ and Jᵀξ by 1e290 (Cauchy–Schwarz), so P and b are finite and the
             # products cannot overflow (no floating-point state to set, no check to make)
-            JtJ = _dot(Jw.T, Jw)
+            JtJ = Jw.T.dot(Jw)
             P = JtJ + reg
-            b = _dot(xiw, Jw)
+            b = xiw.dot(Jw)
         else:
             with np.errstate(over="ignore", invalid="ignore"):
-                JtJ = _dot(Jw.T, Jw)
+                JtJ = Jw.T.dot(Jw)
                 P = JtJ + reg
-                b = _dot(xiw, Jw)
+                b = xiw.dot(Jw)
             t = sum(P.ravel().tolist()) + sum(b.tolist())
             if t - t != 0.0:
                 raise InputError("QP: JᵀJ or Jᵀξ overflows (|J| and |ξ| must stay below ~1e150); "
@@ -327,7 +331,7 @@ class QP(Solver):
         if lo is not None and hi is not None:
             lists = x0l, lol, hil = (x0.tolist(), lo.tolist(), hi.tolist())
             slack = min(min(map(_sub, hil, x0l)), min(map(_sub, x0l, lol)))
-        if slack >= 0.0 and (G is None or h is None or bool(np.all(_dot(G, x0) <= h))):
+        if slack >= 0.0 and (G is None or h is None or bool(np.all(G.dot(x0) <= h))):
             return x0, None, "unconstrained", 0, slack
         if G is None and lo is not None and hi is not None and self.backend == "osqp":
             # a box-only problem: a few primal active-set steps from x0, accepted only with a
