@@ -134,14 +134,16 @@ _OWNED = _ARRAYS[:-1]
 _F64 = np.dtype(np.float64)
 
 
-def make_command(*, chain: Chain | None = None, q: ArrayLike | None = None, **fields: Any) -> Command:
-    """A `Command` from the controller's freshly computed arrays, which it owns
-    (they are made read-only in place, not copied — the controller keeps no reference to
-    them): the fast path of one control cycle (the dataclass ``__init__`` costs ~4 µs).
-    ``sigma_min`` may be the cycle's `SolveResult`: its σ_min is then read on first access.
-    ``chain`` and ``q`` (the cycle's configuration) are kept, outside the dataclass
+def make_command(fields: dict[str, Any], chain: Chain | None = None, q: ArrayLike | None = None) -> Command:
+    """A `Command` from ``fields`` (a dict of its field values that the caller made for it
+    and keeps no reference to) and the controller's freshly computed arrays, which it owns
+    (``qd``, ``q_next``, ``qdd``, ``error``, ``twist`` are made read-only in place, not
+    copied — the controller keeps no reference to them): the fast path of one control
+    cycle (the dataclass ``__init__`` costs ~4 µs, a call with the fields as keywords
+    ~1 µs). ``sigma_min`` may be the cycle's `SolveResult`: its σ_min is then read on first
+    access. ``chain`` and ``q`` (the cycle's configuration) are kept, outside the dataclass
     fields, for the lazy `Command.kind`."""
-    cmd = object.__new__(Command)
+    cmd = _new(Command)
     f = fields
     for a in (f["qd"], f["q_next"], f["qdd"], f["error"], f["twist"]):  # _OWNED
         a.setflags(write=False)
@@ -150,8 +152,12 @@ def make_command(*, chain: Chain | None = None, q: ArrayLike | None = None, **fi
         f["task_error"] = read_only(te)
     f["_chain"] = chain
     f["_q"] = q
-    cmd.__dict__.update(f)
+    _set_dict(cmd, "__dict__", f)  # the dict itself: no copy (the frozen class refuses setattr)
     return cmd
+
+
+_new = object.__new__
+_set_dict = object.__setattr__
 
 
 def _kind_of(chain, q) -> str | None:

@@ -889,14 +889,15 @@ class ResolvedRateController:
             status, flags = "regular", ("regular",)
         res = cyc.res
         active = cyc.active
-        return make_command(qd=qd, q_next=cyc.q_next, qdd=cyc.qdd.copy(), status=status, flags=flags,
-                            reason="; ".join(cyc.reasons), error=cyc.e, position_error=cyc.ep,
-                            orientation_error=cyc.eo, twist=cyc.xi,
-                            sigma_min=res if cyc.smin is None else cyc.smin,  # lazy: res.sigma_min
-                            damping=float(res.damping), task_error=res.task_error,
-                            velocity_scale=cyc.scale,
-                            limits_active=tuple(dict.fromkeys(active)) if active else (), time=t0,
-                            dt=dt, solve=res, chain=self.chain, q=self._q_last)
+        return make_command({"qd": qd, "q_next": cyc.q_next, "qdd": cyc.qdd.copy(), "status": status,
+                             "flags": flags, "reason": "; ".join(cyc.reasons), "error": cyc.e,
+                             "position_error": cyc.ep, "orientation_error": cyc.eo, "twist": cyc.xi,
+                             # lazy: the result's σ_min, read on first access
+                             "sigma_min": res if cyc.smin is None else cyc.smin,
+                             "damping": float(res.damping), "task_error": res.task_error,
+                             "velocity_scale": cyc.scale,
+                             "limits_active": tuple(dict.fromkeys(active)) if active else (),
+                             "time": t0, "dt": dt, "solve": res}, self.chain, self._q_last)
 
     def _jerk_limited_position_guard(self, q, qd, dt, flags, reasons, active, qdd_ref=None):
         """Keep a smoothed joint inside its position range: the Ruckig filter lags the
@@ -1041,12 +1042,13 @@ class ResolvedRateController:
         self._q_next_last = q_next.copy()
         t0 = self.time
         self.time = t0 + dt
-        return make_command(qd=qd, q_next=q_next, qdd=qdd.copy(), status=status, flags=(status,),
-                            reason=reason, error=np.zeros(6) if error is None else error.copy(),
-                            position_error=ep, orientation_error=eo, twist=np.zeros(6),
-                            sigma_min=sigma_min, damping=0.0, task_error=np.zeros(6), velocity_scale=0.0,
-                            limits_active=(), time=t0, dt=dt, solve=None, chain=self.chain,
-                            q=self._q_last)
+        return make_command({"qd": qd, "q_next": q_next, "qdd": qdd.copy(), "status": status,
+                             "flags": (status,), "reason": reason,
+                             "error": np.zeros(6) if error is None else error.copy(),
+                             "position_error": ep, "orientation_error": eo, "twist": np.zeros(6),
+                             "sigma_min": sigma_min, "damping": 0.0, "task_error": np.zeros(6),
+                             "velocity_scale": 0.0, "limits_active": (), "time": t0, "dt": dt,
+                             "solve": None}, self.chain, self._q_last)
 
     def __repr__(self) -> str:
         return (f"ResolvedRateController({self.chain.name!r}, solver={type(self.solver).__name__}, "

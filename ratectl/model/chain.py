@@ -404,7 +404,7 @@ class Chain:
             s = sum(v)
             if s - s == 0.0:
                 k = self._kernels.get(_FK) or kinematics.build_kernel(self, _FK)
-                return np.array(k(*v), dtype=_F64).reshape(4, 4)
+                return _fromiter(k(*v), _F64, 16).reshape(4, 4)
         return kinematics.fk(self, q)
 
     def jacobian(self, q: ArrayLike, *, frame: str = "base", point: ArrayLike | None = None) -> np.ndarray:
@@ -422,7 +422,7 @@ class Chain:
             s = sum(v)
             if s - s == 0.0:
                 k = self._kernels.get(_JAC) or kinematics.build_kernel(self, _JAC)
-                return np.array(k(*v), dtype=_F64).reshape(6, self._n)
+                return _fromiter(k(*v), _F64, 6 * self._n).reshape(6, self._n)
         return kinematics.jacobian(self, q, frame=frame, point=point)
 
     def fk_jacobian(self, q: ArrayLike, *, frame: str = "base", point: ArrayLike | None = None):
@@ -433,7 +433,7 @@ class Chain:
             s = sum(v)
             if s - s == 0.0:
                 k = self._kernels.get(_FKJAC) or kinematics.build_kernel(self, _FKJAC)
-                a = np.array(k(*v), dtype=_F64)
+                a = _fromiter(k(*v), _F64, 16 + 6 * self._n)  # (cheaper than np.array of a tuple)
                 return a[:16].reshape(4, 4), a[16:].reshape(6, self._n)
         return kinematics.fk_jacobian(self, q, frame=frame, point=point)
 
@@ -462,6 +462,7 @@ class Chain:
 
 
 _F64 = np.dtype(np.float64)
+_fromiter = np.fromiter
 _FK = ("fk", False)
 _JAC = ("jac", False)
 _FKJAC = ("fkjac", False)
