@@ -136,6 +136,9 @@ class _Cycle:
         self.smin = None  # σ_min of the solve, read on demand (`ResolvedRateController._sigma`)
 
 
+_QP = solvers.QP
+
+
 def default_solver():
     """The controller's default inverse-velocity solver: ``rc.solvers.AdaptiveDLS()``."""
     return solvers.AdaptiveDLS()
@@ -267,8 +270,16 @@ class ResolvedRateController:
 
     # ------------------------------------------------------------------ state
     def reset(self, qd: ArrayLike | None = None) -> None:
-        """Forget the state: previous q̇ (default zero), halt latch, clock, smoother state."""
-        self._qd = np.zeros(self._n) if qd is None else np.asarray(qd, dtype=float).copy()
+        """Forget the state: previous q̇ (default zero; else a finite (n,) vector [rad/s or
+        m/s], the motion the arm has now), halt latch, clock, smoother state."""
+        if qd is None:
+            qd_new = np.zeros(self._n)
+        else:
+            qd_new = np.array(_float_array(qd, "qd", f"{self._n} numbers"), dtype=float)
+            if qd_new.shape != (self._n,) or not np.all(np.isfinite(qd_new)):
+                raise InputError(f"reset: qd must be a finite ({self._n},) vector, got {qd!r}",
+                                 argument="qd", value=qd)
+        self._qd = qd_new
         self._qdd = np.zeros(self._n)
         self._q_last = None
         self._q_next_last = None
@@ -437,7 +448,13 @@ class ResolvedRateController:
         """q̇ = q̇_ff + solver(J, ξ); a solver failure or a non-finite answer halts (returns
         the halt's Command), otherwise fills ``cyc.qd``, ``cyc.res`` and the status lists."""
         try:
-            if qd_ff is not None and getattr(self.solver, "enforces_limits", False):
+            if type(self.solver) is _QP:
+                # exactly the QP (a subclass or a wrapper may add rows in its own solve): its
+                # entry for validated inputs — q, dt and q̇_ff were checked by this cycle, the
+                # previous q̇ is this controller's finite state, J and ξ its own float arrays
+                res = self.solver.solve_validated(cyc.J, cyc.xi, limits=self.limits, q=q,
+                                                  qd_prev=self._qd, dt=dt, qd_ff=qd_ff)
+            elif qd_ff is not None and getattr(self.solver, "enforces_limits", False):
                 # a limit-enforcing solver (the QP, or a wrapper of it) takes q̇_ff and bounds
                 # the total q̇_ff + correction itself: velocity, position and acceleration
                 # limits hold for what is commanded, not only for the correction

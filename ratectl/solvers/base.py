@@ -301,9 +301,15 @@ def _check_problem(J, xi):
     if xi.shape != (J.shape[0],):
         raise InputError(f"xi must have shape ({J.shape[0]},) to match J {J.shape}, got {xi.shape}",
                          argument="xi", value=xi)
-    # finite, and small enough that products like JJᵀ cannot overflow (|J|, |ξ| up to ~1e145
-    # are accepted): √(‖J‖²_F + ‖ξ‖²) < 1e145, by math.hypot over Python floats in one C
-    # call (it cannot overflow; NaN or inf make it non-finite; cheaper than numpy here)
+    return J, xi, _checked_entries(J, xi)
+
+
+def _checked_entries(J: np.ndarray, xi: np.ndarray) -> list[float]:
+    """The entries of J row by row as Python floats, after checking that J and ξ (float
+    arrays) are finite and small enough that products like JJᵀ cannot overflow (|J|, |ξ| up
+    to ~1e145 are accepted): √(‖J‖²_F + ‖ξ‖²) < 1e145, by math.hypot over Python floats in
+    one C call (it cannot overflow; NaN or inf make it non-finite; cheaper than numpy here).
+    Raises `InputError`."""
     entries = J.ravel().tolist()
     if not _hypot(*entries, *xi.tolist()) < _MAX_ENTRY:
         _check_finite(J, xi)
@@ -311,7 +317,7 @@ def _check_problem(J, xi):
                          "products overflow floating point); got max |J| = "
                          f"{float(np.max(np.abs(J))):.3g}, max |xi| = {float(np.max(np.abs(xi))):.3g}",
                          argument="J", value=J)
-    return J, xi, entries
+    return entries
 
 
 _MAX_ENTRY = 1e145

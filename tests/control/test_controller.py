@@ -419,3 +419,55 @@ def test_sigma_min_is_the_same_quantity_as_analyze_reports(ur5e):
     k = int(np.nanargmin(run.sigma_min))
     assert run.sigma_min[k] == pytest.approx(rc.analyze(ur5e, run.q[k]).sigma_min, rel=1e-9)
     assert "min σ_min(J)" in run.summary() and "analyze" in run.summary()
+
+
+def test_reset_refuses_a_velocity_that_is_not_a_finite_vector(ur5e):
+    """reset(qd) is the controller's state: a NaN there used to reach the commands (a halt
+    that commanded NaN); now it is refused where it is given."""
+    ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.QP())
+    for bad in (np.full(6, np.nan), [0.0, 0.0, np.inf, 0.0, 0.0, 0.0], np.zeros(5), "fast"):
+        with pytest.raises(InputError, match="qd"):
+            ctrl.reset(bad)
+    ctrl.reset([0.01] * 6)  # a list is fine, and copied
+    assert np.array_equal(ctrl.qd, np.full(6, 0.01))
+    cmd = ctrl.step(Q_REG, twist=np.zeros(6), dt=1e-3)
+    assert np.all(np.isfinite(cmd.qd)) and np.all(np.isfinite(cmd.qdd))
+
+
+class _RowQPSubclass(rc.solvers.QP):
+    """A QP subclass whose solve adds a row q̇_0 ≤ h: the controller must call its solve."""
+
+    def __init__(self, h):
+        super().__init__()
+        self.h = h
+
+    def solve(self, J, xi, **kw):
+        G = np.zeros((1, J.shape[1]))
+        G[0, 0] = 1.0
+        return super().solve(J, xi, extra_inequalities=(G, [self.h]), **kw)
+
+
+class _ForwardingWrapper(_RowQPSubclass):
+    """A wrapper that forwards unknown attributes to a plain QP (as MinkLimitedSolver does)."""
+
+    def __init__(self, h):
+        super().__init__(h)
+        self.inner = rc.solvers.QP()
+
+    def __getattr__(self, name):
+        return getattr(self.__dict__["inner"], name)
+
+
+@pytest.mark.parametrize("solver_type", [_RowQPSubclass, _ForwardingWrapper])
+def test_only_the_plain_qp_takes_the_validated_entry(ur5e, solver_type):
+    """The controller's shortcut past the input checks (QP.solve_validated) is for exactly
+    the QP: a subclass or a wrapper that adds rows in its own solve keeps them."""
+    fast = np.array([0.5, 0.0, 0.0, 0.0, 0.0, 0.0])  # joint 0 alone at 0.5 rad/s
+    for solver, bound in ((rc.solvers.QP(), 0.5), (solver_type(0.05), 0.05)):
+        ctrl = rc.ResolvedRateController(ur5e, solver=solver)
+        q = Q_REG.copy()
+        for _ in range(300):
+            cmd = ctrl.step(q, twist=ur5e.jacobian(q) @ fast, dt=1e-3)
+            assert cmd.qd[0] <= bound + 1e-7
+            q = cmd.q_next
+        assert cmd.qd[0] == pytest.approx(bound, rel=2e-2)  # the plain QP (damped), or the row

@@ -108,3 +108,34 @@ def test_the_input_checks_refuse_what_they_refused(solver):
     with pytest.raises(InputError, match="entries below"):
         solver.solve(J, xi * 1e146)
     solver.solve(J * 1e140, xi)  # large but within range: accepted
+
+
+def test_solve_validated_answers_as_solve_bit_for_bit():
+    """The controller's entry past the input checks gives solve's answer, certified the same
+    way, for valid inputs near and far from the limits (and with a feed-forward); J and ξ
+    are still checked there."""
+    arm = rc.robots.ur5e()
+    rng = np.random.default_rng(3)
+    a, b = S.QP(), S.QP()
+    for k in range(400):
+        q = rng.uniform(arm.lower, arm.upper)
+        if k % 3 == 0:  # near a limit
+            q[k % 6] = arm.upper[k % 6] - rng.uniform(0.0, 0.02)
+        J = arm.jacobian(q)
+        xi = rng.normal(size=6) * 10 ** rng.uniform(-2, 0.5)
+        qd_prev = rng.normal(size=6) * 0.5
+        dt = float(rng.choice([1e-3, 2e-3, 4e-3]))
+        ff = rng.normal(size=6) * 0.1 if k % 4 == 1 else None
+        r1 = a.solve(J, xi, limits=arm, q=q, qd_prev=qd_prev, dt=dt, qd_ff=ff)
+        r2 = b.solve_validated(J, xi, limits=arm, q=q, qd_prev=qd_prev, dt=dt, qd_ff=ff)
+        assert r1.qd.tobytes() == r2.qd.tobytes()
+        assert r1.limits_active == r2.limits_active and r1.info["status"] == r2.info["status"]
+        assert r1.sigma_min == r2.sigma_min
+    J = arm.jacobian(arm.lower * 0.5)
+    for bad in (np.nan, np.inf):
+        Jb = J.copy()
+        Jb[1, 1] = bad
+        with pytest.raises(InputError, match="J must be finite"):
+            a.solve_validated(Jb, np.zeros(6), limits=arm, q=np.zeros(6), qd_prev=np.zeros(6), dt=1e-3)
+    with pytest.raises(InputError, match="entries below"):
+        a.solve_validated(J, np.full(6, 1e146), limits=arm, q=np.zeros(6), qd_prev=np.zeros(6), dt=1e-3)

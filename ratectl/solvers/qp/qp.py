@@ -19,6 +19,7 @@ from ..base import (
     SolveResult,
     _check_finite,
     _check_problem,
+    _checked_entries,
     _LazySigma,
     _owned_result,
     _positive,
@@ -172,8 +173,29 @@ class QP(Solver):
             (``lower``, ``upper``) and any ``conflicts`` resolved by priority.
         """
         J, xi, entries = _check_problem(J, xi)
+        qv, qd_prev_v, qd_ff_v, dt_v = self._check_state(q, qd_prev, qd_ff, dt, J.shape[1])
+        return self._solve_checked(J, xi, entries, limits, qv, qd_prev_v, qd_ff_v, dt_v,
+                                   extra_inequalities)
+
+    def solve_validated(self, J: np.ndarray, xi: np.ndarray, *, limits: Limits | Chain | None,
+                        q: np.ndarray | None, qd_prev: np.ndarray | None, dt: float | None,
+                        qd_ff: np.ndarray | None = None) -> SolveResult:
+        """`solve` (without extra rows) for a caller that has validated its inputs itself:
+        the `ResolvedRateController`'s entry, which saves the per-cycle checks it has
+        already made. The caller guarantees: J a float64 ndarray (m, n) with m, n ≥ 1; ξ a
+        float64 ndarray (m,); q, qd_prev and qd_ff None or finite float64 ndarrays (n,);
+        dt None or a positive finite Python float. J and ξ are still checked here (finite,
+        and small enough for their products: the caller cannot know that, a prismatic
+        joint far out makes J huge), and answers are certified as by `solve`; anything
+        outside the guarantee is undefined (use `solve`)."""
+        return self._solve_checked(J, xi, _checked_entries(J, xi), limits, q, qd_prev, qd_ff, dt, None)
+
+    def _solve_checked(self, J: np.ndarray, xi: np.ndarray, entries: list[float],
+                       limits: Limits | Chain | None, qv: np.ndarray | None, qd_prev_v: np.ndarray | None,
+                       qd_ff_v: np.ndarray | None, dt_v: float | None,
+                       extra_inequalities: Any) -> SolveResult:
+        """`solve` on checked inputs (``entries``: J's, row by row)."""
         n = J.shape[1]
-        qv, qd_prev_v, qd_ff_v, dt_v = self._check_state(q, qd_prev, qd_ff, dt, n)
         sigma, P, b = self._objective_terms(J, xi, qv, entries)
         conflicts: tuple = ()
         bc: _BoundCache | None = None
