@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .. import solvers
+from ..arrays import shared_zeros
 from ..errors import InputError, RatectlError, SingularityError
 from ..model.limits import (
     Limits,
@@ -430,14 +431,15 @@ class ResolvedRateController:
         cyc = _Cycle()
         T, J = self.chain.fk_jacobian(q)
         cyc.J = J
-        e = cyc.e = np.zeros(6)
         cyc.target = target is not None
         if target is not None:
+            e = cyc.e = np.zeros(6)
             cyc.ep, cyc.eo = pose_error_into(e, target, T)
             xi = self.gain * e
             if twist is not None:
                 xi += twist
         else:
+            cyc.e = shared_zeros(6)  # no target, no error (the Command's, read-only for good)
             cyc.ep = cyc.eo = 0.0
             xi = twist.copy() if twist is not None else np.zeros(6)
         cyc.xi = xi
@@ -656,10 +658,11 @@ class ResolvedRateController:
             # the solver (the QP, possibly with extra rows such as collision limits) already
             # bounds q̇ by the velocity, position and acceleration limits; limiting again here
             # would move q̇ off its optimum and could break its extra rows
+            info = _info(cyc.res)
             cyc.qd, cyc.scale = self._report_solver_limits(cyc, cyc.res, cyc.qd, cyc.flags,
-                                                           cyc.reasons, cyc.scale)
+                                                           cyc.reasons, cyc.scale, info)
             if self._has_p:
-                self._report_solver_recovery(cyc, q, dt)
+                self._report_solver_recovery(cyc, q, dt, info)
         else:
             self._limit_velocity(cyc)
         if "velocity-scaled" in cyc.flags:
@@ -758,11 +761,11 @@ class ResolvedRateController:
                                adt=self._amax_f2 * dt, vmax=self._vf2)
         return b[:n], -b[n:]
 
-    def _report_solver_recovery(self, cyc: _Cycle, q, dt) -> None:
+    def _report_solver_recovery(self, cyc: _Cycle, q, dt, info: Mapping[str, Any]) -> None:
         """``limit-recovery`` for a limit-enforcing solver: its box resolved a conflict of
         the acceleration bound against the position bound (``info["conflicts"]``, the
         position side won), or a joint is measured beyond a position limit."""
-        conflicts = _info(cyc.res).get("conflicts", ())
+        conflicts = info.get("conflicts", ())
         if not conflicts:
             # a joint beyond a limit? (on Python floats: cheaper than two numpy comparisons)
             ql = q.tolist()
@@ -990,7 +993,7 @@ class ResolvedRateController:
             return bool(at_least(threshold))
         return cls._sigma(cyc) >= threshold
 
-    def _report_solver_limits(self, cyc, res, qd, flags, reasons, scale):
+    def _report_solver_limits(self, cyc, res, qd, flags, reasons, scale, info):
         """Flags and reasons for a solver that enforces the limits itself (the QP): which
         joints sit at which kind of bound, from ``res.bound`` and ``res.limits_active``.
         Only a q̇ beyond vmax by more than rounding (a bound conflict) is scaled back."""
@@ -1018,7 +1021,7 @@ class ResolvedRateController:
         if "acceleration" in kinds:
             flags.append("acceleration-limited")
             reasons.append(f"QP: joint(s) {joints} at the acceleration bound")
-        extra = _info(res).get("extra_active")
+        extra = info.get("extra_active")
         if extra is not None and np.any(extra):
             reasons.append(f"{int(np.count_nonzero(extra))} extra constraint row(s) active "
                            "(e.g. collision avoidance)")

@@ -139,3 +139,28 @@ def test_solve_validated_answers_as_solve_bit_for_bit():
             a.solve_validated(Jb, np.zeros(6), limits=arm, q=np.zeros(6), qd_prev=np.zeros(6), dt=1e-3)
     with pytest.raises(InputError, match="entries below"):
         a.solve_validated(J, np.full(6, 1e146), limits=arm, q=np.zeros(6), qd_prev=np.zeros(6), dt=1e-3)
+
+
+def test_the_box_of_a_cycle_equals_joint_velocity_bounds_around_the_near_gate():
+    """The QP's per-cycle box skips the braking bounds when every joint is farther from its
+    limits than the room to stop from full speed (a gate on thresholds, on Python floats);
+    for q just inside and outside that gate, at several dt, its box is
+    `joint_velocity_bounds`'s, bit for bit."""
+    arm = rc.robots.ur5e()
+    lim = rc.solvers.Limits(lower=arm.lower, upper=arm.upper, vmax=arm.vmax, amax=arm.amax)
+    rng = np.random.default_rng(11)
+    qp = S.QP()
+    J = arm.jacobian(np.array([0.3, -1.2, 1.5, -1.9, -1.4, 0.6]))
+    for dt in (1e-3, 4e-3, 0.05):
+        dstar = arm.vmax * dt + arm.vmax**2 / (2 * arm.amax)
+        for _ in range(300):
+            q = rng.uniform(arm.lower + 1.0, arm.upper - 1.0)
+            j = int(rng.integers(6))
+            side = rng.choice([-1.0, 1.0])
+            room = dstar[j] * (1.0 + rng.choice([-1.0, 1.0]) * 10 ** rng.uniform(-16, -6))
+            q[j] = arm.upper[j] - room if side > 0 else arm.lower[j] + room
+            qd_prev = rng.uniform(-1, 1, 6) * arm.vmax
+            res = qp.solve(J, np.zeros(6), limits=lim, q=q, qd_prev=qd_prev, dt=dt)
+            ref = rc.solvers.qp.joint_velocity_bounds(lim, q=q, qd_prev=qd_prev, dt=dt)
+            assert res.info["lower"].tobytes() == ref.lower.tobytes()
+            assert res.info["upper"].tobytes() == ref.upper.tobytes()

@@ -7,7 +7,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from operator import gt as _gt
 from operator import lt as _lt
-from operator import sub as _sub
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -75,8 +74,7 @@ class _BoundCache:
 
     __slots__ = ("src", "dt", "n", "limits", "vmax", "nvmax", "hi_lim", "lo_lim", "amax_dt",
                  "has_pos", "has_acc", "inv_dt", "lim2", "sgn2", "idx2", "vmax2", "adt", "two_over_a",
-                 "two_over_a2", "two_a", "dstar2", "vmax_l", "amax_dt_l",
-                 "hi_lim_l", "lo_lim_l", "dstar_l")
+                 "two_over_a2", "two_a", "vmax_l", "amax_dt_l", "near_hi_l", "near_lo_l")
 
     def __init__(self, src, limits, dt, margin):  # private: the numbers are checked by its callers
         self.src, self.dt = src, dt
@@ -87,7 +85,6 @@ class _BoundCache:
         self.vmax_l = self.vmax.tolist()
         self.hi_lim = np.where(np.isfinite(limits.upper), limits.upper - margin, _BIG)
         self.lo_lim = np.where(np.isfinite(limits.lower), limits.lower + margin, -_BIG)
-        self.hi_lim_l, self.lo_lim_l = self.hi_lim.tolist(), self.lo_lim.tolist()
         afin = np.isfinite(limits.amax)
         a = np.where(afin, limits.amax, 1e200)
         self.two_a = 2.0 * a
@@ -102,7 +99,7 @@ class _BoundCache:
         if dt is None:
             self.amax_dt = self.inv_dt = self.adt = None
             self.amax_dt_l = None
-            self.dstar2 = self.dstar_l = None
+            self.near_hi_l = self.near_lo_l = None
         else:
             tiny = afin & ~(a * dt * dt >= 1e-290)
             if tiny.any():
@@ -123,8 +120,14 @@ class _BoundCache:
             # not finite (overflow): always compute the braking bounds (the safe side)
             dstar = np.where((limits.vmax < _BIG) & np.isfinite(dstar), dstar * (1.0 + 1e-9) + 1e-12,
                              np.inf)
-            self.dstar2 = np.concatenate([dstar, dstar])
-            self.dstar_l = dstar.tolist()
+            # a joint is near a limit when its room to it, upper − q or q − lower, is below
+            # dstar: q above upper − dstar or below lower + dstar, with a slack of many
+            # roundings so that these thresholds never call a joint far that is near (one
+            # called near that is not gets the velocity limit from the braking bound too)
+            with np.errstate(invalid="ignore"):
+                slack = 1e-14 * (np.abs(self.hi_lim) + np.abs(self.lo_lim) + dstar + 1.0)
+                self.near_hi_l = np.where(np.isfinite(dstar), self.hi_lim - dstar - slack, -np.inf).tolist()
+                self.near_lo_l = np.where(np.isfinite(dstar), self.lo_lim + dstar + slack, np.inf).tolist()
         for arr in (self.vmax, self.nvmax):  # returned as the box when no other bound acts
             arr.setflags(write=False)
 
@@ -134,11 +137,10 @@ def _box(bc: _BoundCache, q, qd_prev):
     n = bc.n
     if q is not None and bc.has_pos and bc.inv_dt is not None:
         # some joint is near a limit: the room to it, D = [upper − q; q − lower], is below
-        # the braking distance from full speed (on Python floats: the same subtractions,
-        # cheaper than numpy on a few numbers)
+        # the distance from which it may move at full speed and still stop (on Python
+        # floats against precomputed thresholds: cheaper than numpy on a few numbers)
         ql = q.tolist()
-        if (any(map(_lt, map(_sub, bc.hi_lim_l, ql), bc.dstar_l))
-                or any(map(_lt, map(_sub, ql, bc.lo_lim_l), bc.dstar_l))):
+        if any(map(_gt, ql, bc.near_hi_l)) or any(map(_lt, ql, bc.near_lo_l)):
             D = bc.lim2 - q[bc.idx2] * bc.sgn2
             if (D < 0.0).any():
                 return _careful(bc, q, qd_prev)  # beyond a limit: the careful path

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import lapack as _lapack
 
+from ...arrays import shared_zeros
 from ...errors import InputError, SolverError
 from ...model.limits import Limits
 from ..base import (
@@ -51,9 +52,6 @@ _KKT_TOL = 1e-9  # accepted scaled KKT violation (see kkt_violation)
 
 
 _dot = np.dot
-
-
-_zeros = np.zeros
 
 
 class QP(Solver):
@@ -486,7 +484,7 @@ class QP(Solver):
             at_lo = qd <= lo + tol
             return at_hi | at_lo, _sources(bc, qd_prev, lo_t, hi_t,
                                            (at_hi.astype(int) - (at_lo & ~at_hi)).tolist())
-        return _zeros(n, dtype=bool), ()
+        return shared_zeros(n, bool), ()  # no joint at a bound
 
     # ------------------------------------------------------------------ backends
     @staticmethod
