@@ -429,17 +429,19 @@ class ResolvedRateController:
         """fk and J at q, the pose error e = [p_d − p; log(R_d Rᵀ)] and the twist
         ξ = ξ_ff + K e to resolve; returns the cycle's working state."""
         cyc = _Cycle()
-        T, J = self.chain.fk_jacobian(q)
-        cyc.J = J
         cyc.target = target is not None
         if target is not None:
+            T, cyc.J = self.chain.fk_jacobian(q)
             e = cyc.e = np.zeros(6)
             cyc.ep, cyc.eo = pose_error_into(e, target, T)
             xi = self.gain * e
             if twist is not None:
                 xi += twist
         else:
-            cyc.e = shared_zeros(6)  # no target, no error (the Command's, read-only for good)
+            # no target: J alone (its kernel shares fk_jacobian's expressions: the same J, and
+            # no pose to build), and no error (the Command's, read-only for good)
+            cyc.J = self.chain.jacobian(q)
+            cyc.e = shared_zeros(6)
             cyc.ep = cyc.eo = 0.0
             xi = twist.copy() if twist is not None else np.zeros(6)
         cyc.xi = xi

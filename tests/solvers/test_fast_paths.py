@@ -164,3 +164,14 @@ def test_the_box_of_a_cycle_equals_joint_velocity_bounds_around_the_near_gate():
             ref = rc.solvers.qp.joint_velocity_bounds(lim, q=q, qd_prev=qd_prev, dt=dt)
             assert res.info["lower"].tobytes() == ref.lower.tobytes()
             assert res.info["upper"].tobytes() == ref.upper.tobytes()
+
+
+@pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa7", "puma560", "stanford", "rpr", "planar2r"])
+def test_the_jacobian_kernel_gives_fk_jacobians_j_bit_for_bit(name):
+    """A cycle without a target computes J alone (`Chain.jacobian`), one with a target both
+    (`Chain.fk_jacobian`): the two kernels share their expressions, so J is the same bits
+    and a twist-only cycle commands what it did before."""
+    arm = getattr(rc.robots, name)()
+    rng = np.random.default_rng(5)
+    for q in rng.uniform(-3.0, 3.0, (500, arm.dof)):
+        assert arm.jacobian(q).tobytes() == arm.fk_jacobian(q)[1].tobytes()
