@@ -451,25 +451,30 @@ class ResolvedRateController:
     def _solve(self, cyc: _Cycle, q, dt, qd_ff) -> Command | None:
         """q̇ = q̇_ff + solver(J, ξ); a solver failure or a non-finite answer halts (returns
         the halt's Command), otherwise fills ``cyc.qd``, ``cyc.res`` and the status lists."""
+        # with smoothing the filter bounds the acceleration (and the jerk) of what is
+        # commanded; a solver's acceleration box around the filter's lagging output would
+        # throttle it (the QP's answer at q̇_f ± amax·dt keeps Ruckig's target within one
+        # period of its state: the arm then accelerates at a fraction of amax)
+        qd_prev = self._qd if self.filter is None else None
         try:
             if type(self.solver) is _QP:
                 # exactly the QP (a subclass or a wrapper may add rows in its own solve): its
                 # entry for validated inputs — q, dt and q̇_ff were checked by this cycle, the
                 # previous q̇ is this controller's finite state, J and ξ its own float arrays
                 res = self.solver.solve_validated(cyc.J, cyc.xi, limits=self.limits, q=q,
-                                                  qd_prev=self._qd, dt=dt, qd_ff=qd_ff)
+                                                  qd_prev=qd_prev, dt=dt, qd_ff=qd_ff)
             elif qd_ff is not None and getattr(self.solver, "enforces_limits", False):
                 # a limit-enforcing solver (the QP, or a wrapper of it) takes q̇_ff and bounds
                 # the total q̇_ff + correction itself: velocity, position and acceleration
                 # limits hold for what is commanded, not only for the correction
                 enforcing: Any = self.solver  # the enforces_limits contract includes qd_ff=
-                res = enforcing.solve(cyc.J, cyc.xi, limits=self.limits, q=q, qd_prev=self._qd,
+                res = enforcing.solve(cyc.J, cyc.xi, limits=self.limits, q=q, qd_prev=qd_prev,
                                       dt=dt, qd_ff=qd_ff)
             else:
                 if qd_ff is None:
-                    q_s, qd_prev_s = q, self._qd
+                    q_s, qd_prev_s = q, qd_prev
                 else:  # the solver resolves the correction on top of q̇_ff: shift its inputs
-                    q_s, qd_prev_s = q + qd_ff * dt, self._qd - qd_ff
+                    q_s, qd_prev_s = q + qd_ff * dt, (None if qd_prev is None else qd_prev - qd_ff)
                 res = self.solver.solve(cyc.J, cyc.xi, limits=self.limits, q=q_s, qd_prev=qd_prev_s,
                                         dt=dt)
         except SingularityError as err:
