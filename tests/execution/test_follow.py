@@ -68,7 +68,10 @@ def test_governor_final_pose_and_timing(ur5e, scenario, governed):
     e = rc.spatial.pose_error(line.end, ur5e.fk(run.q[-1]))
     assert np.linalg.norm(e[:3]) < 1e-4 and math.degrees(np.linalg.norm(e[3:])) < 0.01
     # it took longer than the nominal time law, and says so
-    assert run.nominal_duration == pytest.approx(line.duration)
+    # the nominal duration is measured like the run's: arrival of the path's own law within the
+    # same tolerance of the end pose (a few ms before the law's end), the law's end is in info
+    assert line.duration - 0.05 < run.nominal_duration <= line.duration
+    assert run.info["law_duration"] == line.duration
     assert run.duration > run.nominal_duration + 0.2
     assert run.extra_time == pytest.approx(run.duration - run.nominal_duration)
     assert "nominal" in run.message and f"{run.nominal_duration:.3f}" in run.message
@@ -204,7 +207,7 @@ def test_iiwa_waypoints_with_joint_limits():
 
 def test_joint_limit_on_a_path_is_held_and_reported():
     """A Panda rotation about the flange axis that needs joint 7 beyond its limit (2.8973 rad):
-    the controller holds the limit, reports it, and the orientation error is on record."""
+    the controller holds the limit, reports it, and the orientation error at the end is on record."""
     arm = rc.robots.panda()
     q0 = np.array([0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 2.6])
     T0 = arm.fk(q0)
@@ -217,7 +220,10 @@ def test_joint_limit_on_a_path_is_held_and_reported():
     assert run.q[-1, 6] == pytest.approx(arm.upper[6], abs=1e-3)
     assert np.all(np.abs(run.qd) <= arm.vmax * (1 + 1e-9))
     assert np.all(np.abs(run.qdd) <= arm.amax * (1 + 1e-6))
-    assert not run.completed and run.max_orientation_error > math.radians(10)
+    # the tool stops turning at the limit: it stays on the path (the pose metric finds the point
+    # of the rotation it reached), short of the end by more than 10° — on record as the end error
+    assert not run.completed and run.max_orientation_error < math.radians(0.1)
+    assert run.info["end_orientation_error"] > math.radians(10) and "end pose not reached" in run.message
     # the governor sees it coming and says so
     plan = rc.planning.plan(arm, path, q0, dt=DT)
     assert not plan.complete and "position limit of joint 6" in plan.message
