@@ -6,7 +6,9 @@ Two modes:
   plans the joint path and a jerk-limited, limit-respecting progress s(t); each
   cycle the controller gets the planned joint velocity as feed-forward (``qd_ff``)
   and the path pose P(s_k) as target, so feedback corrects any drift. The motion
-  takes as long as the limits require and stays on the path.
+  takes as long as the limits require and stays on the path; it comes to rest at every
+  sharp corner of the path. The path's own time law is replaced, its speed,
+  acceleration and jerk limits kept (the message says so).
 * ``governor=False``: the path's own time law drives the controller with
   ``target = P(s(t))`` and ``twist = dP/ds·ṡ(t)``; near singularities the solver
   (and the controller's limits) decide what gives — typically the path error.
@@ -57,13 +59,26 @@ def follow(chain: Chain, path: Path, q0: ArrayLike, *, dt: float,
         path_tolerance: (position [m], orientation [rad]) the governed run must stay within
             along the whole path; a governed run that leaves the path by more is reported as
             not completed, with the departure (a time-law run trades path error for time by
-            design and is not checked).
+            design and is not checked). The distance from the path is measured near the s the
+            step commanded (see `Execution.position_error`), so a path that revisits a
+            position is measured against the visit the tool is on.
         approach: if fk(q0) is not at the path start, first solve IK for the start pose and move
             there with a jerk-limited joint move (recorded in ``info["approach"]``); if False,
             such a q0 is an error.
         record_kinds: ask `ratectl.analyze` for the singularity kind on steps whose status
             is "damped" or "singular" (evaluated every 20 ms within such a stretch, carried
             over in between).
+
+    Returns:
+        An `Execution`. Its ``duration`` ends where the tool arrives within ``tolerance`` of
+        the end pose for good, and ``nominal_duration`` is the time at which the path's own
+        law, sampled every dt, arrives within the same tolerance (like for like;
+        ``info["law_duration"]`` is the law's full duration). ``info`` also holds
+        ``end_position_error`` [m] and ``end_orientation_error`` [rad] — the final pose's
+        distance from the path's *end pose*, always — and, when the governor's plan stops
+        short of the end, ``stop_s`` [m], ``stop_position_error`` [m] and
+        ``stop_orientation_error`` [rad] (the final pose against the pose where it stopped);
+        ``plan`` (the `GovernorPlan`), ``approach``, ``solver``, ``smoothing``, ``governor``.
     """
     dt, q, ctrl = _validate(chain, path, q0, dt, controller)
     ctrl.reset()

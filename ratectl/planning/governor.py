@@ -9,7 +9,9 @@ gives up *time* instead: it keeps the tool on the path and re-times the progress
     q̇ = q′ṡ,    q̈ = q′s̈ + q″ṡ²,    q⃛ = q′s⃛ + 3q″ṡs̈ + q‴ṡ³
 
 stay within ``velocity_margin·vmax``, ``acceleration_margin·amax`` (and, for a jerk-limited
-executor, jmax) on every joint, and within the path's own speed and acceleration limits.
+executor, jmax) on every joint, and within the path's own speed, acceleration and jerk
+limits (`Governor.progress_jerk_limit`): the governor *replaces* the path's time law by this
+progress, and keeps the law's limits.
 
 How (all done once, before the motion — `Governor.plan`):
 
@@ -17,10 +19,12 @@ How (all done once, before the motion — `Governor.plan`):
    following exact singularities wherever the path tangent lies in the range of J and q′
    stays bounded (the smooth branch; the crossings are listed with the branch taken), and
    stopping with a specific message only where the path leaves the reachable set or needs
-   unbounded joint speed. A path that ends at a singular pose is followed to it.
+   unbounded joint speed. A path that ends at a singular pose is followed to it. A sharp
+   corner of the path (`Path.corners`) is recorded twice, with the incoming and the
+   outgoing tangent.
 2. **Time-optimal admissible speed** (`reachability_profile`):
    reachability analysis on x = ṡ² as in TOPP-RA — backward controllable sets, greedy
-   forward pass — starting and ending at rest.
+   forward pass — starting and ending at rest, and at rest at every sharp corner.
 3. **Progress.** Without a smoother the progress s(t) *is* the time-optimal profile, sampled
    every control period. With a jerk-limited smoother (``check_jerk``) the progress is the
    profile's moving average over a window T that bounds the ``q′s⃛`` term of the joint jerk
@@ -29,7 +33,10 @@ How (all done once, before the motion — `Governor.plan`):
    ``|q‴_i|ṡ³ ≤ jmax_i`` is not used: it ignores that the terms cancel — on the
    velocity-limit curve next to a singularity q̇_i = q′_iṡ is constant, so the binding
    joint's jerk is zero however large q‴ is — and it made those plans 1.4–1.5× slower than
-   the unsmoothed ones where the check alone needs 1.15×.
+   the unsmoothed ones where the check alone needs 1.15×. With a jerk limit j of the
+   progress the progress is averaged too, over at least the shortest window that keeps
+   |s⃛| ≤ j (`_progress_jerk_window`), and the profile's s̈ is capped at √(ṡ_max j). The
+   average is taken piece by piece between sharp corners, so the progress rests at each.
 4. **Check.** The discrete joint motion the executor will command (secant velocities between
    planned configurations and their differences) is checked against ``check_fraction`` of
    every limit. Where it exceeds one, the margins are lowered *locally* — on the grid points
@@ -161,8 +168,9 @@ class Governor:
     Args:
         velocity_margin: plan joint speeds to this fraction of vmax (room for feedback).
         acceleration_margin: plan joint accelerations to this fraction of amax.
-        jerk: jerk limit of the progress s⃛ [m/s³] for a jerk-limited executor (default: the
-            path's jerk; without one only the joints' jmax limit the jerk).
+        jerk: jerk limit of the progress s⃛ [m/s³] (default: the path's, see
+            `progress_jerk_limit`; without one the progress jerk is limited only through the
+            joints' jmax, and only with ``check_jerk``).
         max_joint_step: joint-path integration step [rad]; nullspace_gain: joint centring for
             redundant arms [1/m]; sigma_tolerance: ignored (feasibility comes from the
             range-space residual, see `joint_path`).
