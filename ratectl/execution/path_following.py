@@ -202,9 +202,10 @@ def _path_errors(chain, path, Q, S):
 
     The distance from the path is measured at the nearest point in the pose metric of
     `Path.distance`, searched locally — from the commanded s of the step and from the previous
-    step's nearest point (for a tool that lags its schedule), each within a window of
-    5 % of the length (+1 mm) — never globally: a path that revisits a pose, turns back on
-    itself or rotates on the spot has other near points that the tool is not at."""
+    step's nearest point (for a tool that lags its schedule; skipped when the tool is within
+    0.1 µm and 0.1 µrad of the path already), each within a window of 5 % of the length
+    (+1 mm) — never globally: a path that revisits a pose, turns back on itself or rotates
+    on the spot has other near points that the tool is not at."""
     poses, J = chain.fk_jacobian(Q)
     sig = np.linalg.svd(J, compute_uv=False)[:, -1]
     perr, oerr, terr = np.empty(len(Q)), np.empty(len(Q)), np.empty(len(Q))
@@ -213,7 +214,7 @@ def _path_errors(chain, path, Q, S):
     s_near = None
     for i in range(len(Q)):
         best = path.distance(poses[i], s_hint=S[i], window=window)
-        if s_near is not None and abs(s_near - S[i]) > 1e-12:
+        if s_near is not None and abs(s_near - S[i]) > 1e-12 and (best[0] > 1e-7 or best[1] > 1e-7):
             other = path.distance(poses[i], s_hint=s_near, window=window)
             if other[0] ** 2 + rho2 * other[1] ** 2 < best[0] ** 2 + rho2 * best[1] ** 2:
                 best = other

@@ -155,29 +155,30 @@ class Path:
         """Samples of s for the global nearest-point search (101 over the path)."""
         return np.linspace(0.0, self.length, 101)
 
-    def _pose_terms(self, s: float, x: np.ndarray, Rx: np.ndarray | None) -> tuple[float, float, float]:
-        """(f, g, h) at s of the squared pose distance f = ‖p(s) − x‖² + ρ²‖φ‖², φ = log(R(s)R_xᵀ)
-        (ρ = ``rotation_length``; without ``Rx`` the position part only): g = ½ df/ds exactly
-        (dp/ds·(p − x) + ρ² ω_s·φ, because J_l(φ)ᵀφ = φ) and its Gauss–Newton curvature
-        h = ‖dp/ds‖² + ρ²‖ω_s‖²."""
+    def _pose_terms(self, s: float, x: np.ndarray, Rx: np.ndarray | None) -> tuple[float, ...]:
+        """(f, g, h, e², θ²) at s of the squared pose distance f = e² + ρ²θ², e² = ‖p(s) − x‖²,
+        θ² = ‖φ‖², φ = log(R(s)R_xᵀ) (ρ = ``rotation_length``; without ``Rx`` the position part
+        only): g = ½ df/ds exactly (dp/ds·(p − x) + ρ² ω_s·φ, because J_l(φ)ᵀφ = φ) and its
+        Gauss–Newton curvature h = ‖dp/ds‖² + ρ²‖ω_s‖²."""
         p, R, dp, w = self._geometry(s)
         e = p - x
-        f, g, h = float(e @ e), float(dp @ e), float(dp @ dp)
+        e2, g, h, a2 = float(e @ e), float(dp @ e), float(dp @ dp), 0.0
         if Rx is not None:
             phi = so3_log(R @ Rx.T)
             r2 = self.rotation_length ** 2
-            f += r2 * float(phi @ phi)
+            a2 = float(phi @ phi)
             g += r2 * float(w @ phi)
             h += r2 * float(w @ w)
-        return f, g, h
+        return e2 + self.rotation_length ** 2 * a2, g, h, e2, a2
 
     def _descend(self, s: float, x: np.ndarray, Rx: np.ndarray | None, lo: float, hi: float,
-                 step: float) -> tuple[float, float]:
-        """Local minimum (s, f) of the squared pose distance from ``s`` within [lo, hi]:
-        Gauss–Newton steps of at most ``step`` [m], halved until f decreases."""
-        f, g, h = self._pose_terms(s, x, Rx)
+                 step: float) -> tuple[float, float, float]:
+        """Local minimum (s, e², θ²) of the squared pose distance from ``s`` within [lo, hi]:
+        Gauss–Newton steps of at most ``step`` [m], halved until the distance decreases."""
+        cur = self._pose_terms(s, x, Rx)
         tiny = 1e-13 * max(self.length, 1e-3)
         for _ in range(40):
+            f, g, h = cur[:3]
             if g == 0.0:
                 break
             ds = -g / h if h > 1e-18 else -math.copysign(step, g)  # a cusp (dP/ds = 0): probe
@@ -185,16 +186,16 @@ class Path:
             while True:
                 s_new = min(max(s + ds, lo), hi)
                 if abs(s_new - s) <= tiny:
-                    return s, f
-                f_new, g_new, h_new = self._pose_terms(s_new, x, Rx)
-                if f_new <= f:
+                    return s, cur[3], cur[4]
+                new = self._pose_terms(s_new, x, Rx)
+                if new[0] <= f:
                     break
                 ds *= 0.5
             converged = abs(s_new - s) <= 1e-12 * max(self.length, 1e-3)
-            s, f, g, h = s_new, f_new, g_new, h_new
+            s, cur = s_new, new
             if converged:
                 break
-        return s, f
+        return s, cur[3], cur[4]
 
     def _target(self, x: ArrayLike) -> tuple[np.ndarray, np.ndarray | None]:
         """(position, rotation or None) of a point (3,) or a pose (4, 4)."""
@@ -226,34 +227,37 @@ class Path:
         along a motion, from the commanded s, where a path revisits a pose or turns back
         on itself.
         """
+        return self._nearest(point, s_hint, window)[0]
+
+    def _nearest(self, point: ArrayLike, s_hint: float | None, window: float | None):
+        """(s, e², θ²) of the nearest point (see `closest`)."""
         x, Rx = self._target(point)
         L = self.length
         if L <= 0.0:
-            return 0.0
+            return self._descend(0.0, x, Rx, 0.0, 0.0, 1e-9)
         if s_hint is not None:
             s = self._clamp(s_hint)
             w = L if window is None else float(window)
             lo, hi = max(0.0, s - w), min(L, s + w)
-            return self._descend(s, x, Rx, lo, hi, max(min(w, L / 20.0), 1e-9))[0]
+            return self._descend(s, x, Rx, lo, hi, max(min(w, L / 20.0), 1e-9))
         start = self._start_estimate(x, Rx)
         if start is not None:
-            return self._descend(start[0], x, Rx, 0.0, L, start[1])[0]
+            return self._descend(start[0], x, Rx, 0.0, L, start[1])
         grid = self._search_grid()
         f = [self._pose_terms(float(g), x, Rx)[0] for g in grid]
         k = int(np.argmin(f))
         lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, len(grid) - 1)])
-        return self._descend(float(grid[k]), x, Rx, lo, hi, max(hi - lo, 1e-9))[0]
+        return self._descend(float(grid[k]), x, Rx, lo, hi, max(hi - lo, 1e-9))
 
     def distance(self, T: ArrayLike, *, s_hint: float | None = None, window: float | None = None):
         """Distance of the pose ``T`` (4×4) from the path: ``(position [m], orientation [rad], s)``
         at the nearest point s of the path in the pose metric of `closest` (searched near
         ``s_hint`` when given); the orientation error is the angle between R and R(s)."""
         T = np.asarray(T, dtype=float)
-        s = self.closest(T, s_hint=s_hint, window=window)
-        p, R, _, _ = self._geometry(s)
-        dpos = float(np.linalg.norm(T[:3, 3] - p))
-        dang = float(np.linalg.norm(so3_log(R.T @ T[:3, :3])))
-        return dpos, dang, s
+        if T.shape != (4, 4):
+            raise InputError(f"T must be a pose (4, 4), got shape {T.shape}", argument="T", value=T)
+        s, e2, a2 = self._nearest(T, s_hint, window)
+        return math.sqrt(e2), math.sqrt(a2), s
 
     def __repr__(self) -> str:
         return (f"{type(self).__name__}(length={self.length:.4g} m, speed={self.speed:g} m/s, "

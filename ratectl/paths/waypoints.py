@@ -58,7 +58,7 @@ class Waypoints(Path):
     faster than ṡ in the metric of ``rotation_length`` ρ. ``blend=0`` gives sharp corners
     through the waypoints, listed in `corners`: the tangent jumps there, so a motion that
     stays on the path must stop at each (the governor plans ṡ = 0 there; the path's own
-    time law does not stop and cuts the corner under feedback).
+    time law does not stop there).
 
     Args:
         poses: N ≥ 2 poses (N, 4, 4).
