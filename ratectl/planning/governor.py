@@ -427,14 +427,18 @@ def _progress_jerk_window(prof: SpeedProfile, jp: JointPath, *, dt: float, jerk:
     A window T turns the profile's jumps of s̈ into s⃛ = Δs̈/T. On a trapezoid the jumps are
     s̈_max each and T = s̈_max/jerk gives exactly the jerk-limited (S-curve) law of the same
     speed and acceleration; a jump from +s̈_max to −s̈_max (no cruise) needs up to twice
-    that. Windows between the two are tried in steps of about 5 % and the first whose
-    sampled progress meets the limit is taken (2 s̈_max/jerk always does)."""
+    that. Windows between the two are tried — the first four periods, then steps of about
+    5 % — and the first whose sampled progress meets the limit is taken (2 s̈_max/jerk
+    always does)."""
     umax = float(np.max(np.abs(prof.u))) if len(prof.u) else 0.0
     if umax <= 0.0:
         return 0.0
     w0 = max(int(math.ceil(umax / (jerk * dt))), 2)
     w1 = max(int(math.ceil(2.0 * umax / (jerk * dt))), w0)
-    for W in np.unique(np.round(np.geomspace(w0, w1, 16)).astype(int)):
+    # the first few periods above the lower bound (sampling moves the profile's kinks by < dt),
+    # then steps of about 5 %
+    candidates = np.concatenate([w0 + np.arange(4), np.round(np.geomspace(w0, w1, 16))]).astype(int)
+    for W in np.unique(candidates[candidates <= w1]):
         if _progress_jerk(_smooth_progress(prof, jp, dt=dt, window=W * dt)[0], dt) <= jerk * (1 + 1e-9):
             return float(W * dt)
     return float(w1 * dt)
