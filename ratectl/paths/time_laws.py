@@ -21,11 +21,14 @@ class TimeLaw:
     Attributes:
         length: path length L [m].
         duration: T [s].
+        max_jerk: the largest |s⃛| of the law [m/s³]: inf for the trapezoid (its s̈ jumps),
+            the jerk limit of the jerk-limited law, 60L/T³ for the quintic (at both ends).
     """
 
     name = "base"
     length: float
     duration: float
+    max_jerk: float = math.inf
 
     def __call__(self, t: float) -> tuple[float, float, float]:
         """``(s, ṡ, s̈)`` at time ``t`` [s]; clamped to the ends outside [0, T]."""
@@ -88,6 +91,7 @@ class Quintic(TimeLaw):
         L = self.length
         T = max(15.0 * L / (8.0 * v), math.sqrt(10.0 * L / (math.sqrt(3.0) * a))) if L > 0 else 0.0
         self.duration = T
+        self.max_jerk = 60.0 * L / T / T / T if T > 0 else 0.0  # (no ** : it raises on overflow)
 
     def _eval(self, t):
         T, L = self.duration, self.length
@@ -110,7 +114,7 @@ class JerkLimited(TimeLaw):
 
         self.length = float(length)
         v, a, j = _positive(speed, "speed"), _positive(acceleration, "acceleration"), _positive(jerk, "jerk")
-        self.jerk = j
+        self.jerk = self.max_jerk = j
         if self.length <= 0.0:
             self.duration = 0.0
             self._traj = None
