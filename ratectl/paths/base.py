@@ -8,9 +8,9 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import positive_number
 from ..errors import InputError
 from ..spatial import so3_exp, so3_log
-from .checks import _positive
 from .time_laws import make_time_law
 
 __all__ = ['Path', 'MAX_STEPS']
@@ -34,10 +34,10 @@ class Path:
     length: float
 
     def _setup(self, length: float, *, speed, acceleration, jerk, law, rotation_length) -> None:
-        self.speed = _positive(speed, "speed")
-        self.acceleration = _positive(acceleration, "acceleration")
-        self.jerk = None if jerk is None else _positive(jerk, "jerk")
-        self.rotation_length = _positive(rotation_length, "rotation_length")
+        self.speed = positive_number("speed", speed)
+        self.acceleration = positive_number("acceleration", acceleration)
+        self.jerk = None if jerk is None else positive_number("jerk", jerk)
+        self.rotation_length = positive_number("rotation_length", rotation_length)
         if law is None:
             law = "trapezoidal" if jerk is None else "jerk-limited"
         self.length = float(length)
@@ -125,7 +125,7 @@ class Path:
         checked up front: more than ``max_steps`` raises `InputError`
         naming the duration and dt (instead of running out of time or memory later).
         Loops over a path (sampling, following it) call this before any work."""
-        dt = _positive(dt, "dt")
+        dt = positive_number("dt", dt)
         n = self.duration / dt
         if not n <= max_steps - 1:
             raise InputError(
@@ -137,7 +137,7 @@ class Path:
     def sample(self, dt: float, *, max_steps: int = MAX_STEPS):
         """Times, poses and twists of the nominal law every ``dt`` [s]: (t, (N,4,4), (N,6)).
         At most ``max_steps`` samples (see `steps`)."""
-        dt = _positive(dt, "dt")
+        dt = positive_number("dt", dt)
         n = self.steps(dt, max_steps=max_steps)
         t = np.minimum(np.arange(n) * dt, self.duration)
         return t, np.array([self.pose(x) for x in t]), np.array([self.twist(x) for x in t])

@@ -8,9 +8,10 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import positive_number
 from ..spatial import so3_log
 from .base import Path, _Geodesic
-from .checks import _pose, _positive
+from .checks import _pose
 
 __all__ = ['Line']
 
@@ -38,7 +39,7 @@ class Line(Path):
         self.p0 = self.T_start[:3, 3]
         self.dp = self.T_end[:3, 3] - self.p0
         self.rot = _Geodesic(self.T_start[:3, :3], so3_log(self.T_start[:3, :3].T @ self.T_end[:3, :3]))
-        rho = _positive(rotation_length, "rotation_length")
+        rho = positive_number("rotation_length", rotation_length)
         L = math.hypot(float(np.linalg.norm(self.dp)), rho * self.rot.angle)
         self._setup(L, speed=speed, acceleration=acceleration, jerk=jerk, law=law,
                     rotation_length=rotation_length)

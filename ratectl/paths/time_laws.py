@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import math
 
+from ..checks import positive_number
 from ..errors import InputError
-from .checks import _positive
 
 __all__ = ['TimeLaw', 'Trapezoidal', 'JerkLimited', 'Quintic', 'make_time_law', 'LAWS']
 
@@ -55,7 +55,7 @@ class Trapezoidal(TimeLaw):
 
     def __init__(self, length: float, *, speed: float, acceleration: float) -> None:
         self.length = float(length)
-        v, a = _positive(speed, "speed"), _positive(acceleration, "acceleration")
+        v, a = positive_number("speed", speed), positive_number("acceleration", acceleration)
         L = self.length
         if L <= 0.0:
             self.vpeak, self.ta, self.duration, self.a = 0.0, 0.0, 0.0, a
@@ -87,7 +87,7 @@ class Quintic(TimeLaw):
 
     def __init__(self, length: float, *, speed: float, acceleration: float) -> None:
         self.length = float(length)
-        v, a = _positive(speed, "speed"), _positive(acceleration, "acceleration")
+        v, a = positive_number("speed", speed), positive_number("acceleration", acceleration)
         L = self.length
         T = max(15.0 * L / (8.0 * v), math.sqrt(10.0 * L / (math.sqrt(3.0) * a))) if L > 0 else 0.0
         self.duration = T
@@ -113,7 +113,8 @@ class JerkLimited(TimeLaw):
         import ruckig
 
         self.length = float(length)
-        v, a, j = _positive(speed, "speed"), _positive(acceleration, "acceleration"), _positive(jerk, "jerk")
+        v, a = positive_number("speed", speed), positive_number("acceleration", acceleration)
+        j = positive_number("jerk", jerk)
         self.jerk = self.max_jerk = j
         if self.length <= 0.0:
             self.duration = 0.0
