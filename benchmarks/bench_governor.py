@@ -1,4 +1,5 @@
-"""Governor benchmark: near and exact singularity crossings, a singular end, blends, a fast line.
+"""Governor benchmark: near and exact singularity crossings, a singular end, blends, sharp corners
+(waypoints with ``blend=0``, where the tool must stop), a fast line.
 
 Run:  python benchmarks/bench_governor.py [name-filter ...]
 
@@ -208,6 +209,9 @@ def cases():
     out["ur5e waypoints, 3 cm blends"] = waypoints(
         "ur5e", [0.0, -1.2, 1.4, -1.8, 0.9, 0.3], ([0.1, 0, 0], [0.0, 0.1, -0.05], [-0.1, 0.0, 0.1]),
         speed=0.3, acceleration=1.5)
+    out["ur5e waypoints, sharp corners"] = waypoints(
+        "ur5e", [0.0, -1.2, 1.4, -1.8, 0.9, 0.3], ([0.1, 0, 0], [0.0, 0.1, -0.05], [-0.1, 0.0, 0.1]),
+        blend=0.0, speed=0.3, acceleration=1.5)
     out["ur5e fast line 1 m/s"] = fast_line
     return out
 

@@ -20,6 +20,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "ratectl"
 # lowest first; layers on one line have the same rank and must not import each other
 LAYERS: list[tuple[str, ...]] = [
     ("errors", "arrays"),
+    ("checks",),
     ("spatial",),
     ("kinematics",),
     ("io",),

@@ -48,6 +48,7 @@ from numpy.typing import ArrayLike
 
 from .. import solvers
 from ..arrays import shared_zeros
+from ..checks import positive_number
 from ..errors import InputError, RatectlError, SingularityError
 from ..model.limits import (
     Limits,
@@ -175,7 +176,10 @@ class ResolvedRateController:
         if not callable(getattr(self.solver, "solve", None)):
             raise InputError("solver must have a solve(J, xi, ...) method (see ratectl.solvers), "
                              f"got {type(self.solver).__name__}", argument="solver", value=solver)
-        K = np.broadcast_to(np.asarray(gain, dtype=float), (6,)).copy() if np.ndim(gain) <= 1 else None
+        try:
+            K = np.broadcast_to(np.asarray(gain, dtype=float), (6,)).copy()
+        except (TypeError, ValueError):  # not numbers, or not a scalar / 6 values
+            K = None
         if K is None or not np.all(np.isfinite(K)) or np.any(K < 0):
             raise InputError(f"gain must be a non-negative scalar or 6 values [1/s], got {gain!r}",
                              argument="gain", value=gain)
@@ -252,10 +256,11 @@ class ResolvedRateController:
                 f = self.filter
                 self._pbrake = np.maximum(self._pbrake,
                                           stopping_distance(f.vmax, f.amax, f.amax, f.jmax))
-        self.position_tolerance = float(position_tolerance)
-        self.orientation_tolerance = float(orientation_tolerance)
-        self.timeout = float(timeout)
-        self.singular_sigma = float(singular_sigma)
+        self.position_tolerance = positive_number("position_tolerance", position_tolerance, unit="[m]")
+        self.orientation_tolerance = positive_number("orientation_tolerance", orientation_tolerance,
+                                                     unit="[rad]")
+        self.timeout = positive_number("timeout", timeout, allow_inf=True, unit="[s]")
+        self.singular_sigma = positive_number("singular_sigma", singular_sigma, allow_zero=True)
         self._e = np.zeros(6)
         self.reset()
 
@@ -325,12 +330,12 @@ class ResolvedRateController:
             stamp: when the target was produced, on the controller clock ``ctrl.time`` [s];
                 older than ``timeout`` → halt (stale target).
         """
-        return self._cycle(*self._validate(q, target, twist, dt, qd_ff), qdd_ff, stamp)
+        return self._cycle(*self._validate(q, target, twist, dt, qd_ff, qdd_ff), stamp)
 
     def _cycle(self, q: np.ndarray, target: np.ndarray | None, twist: np.ndarray | None, dt: float,
-               qd_ff: np.ndarray | None, qdd_ff: ArrayLike | None, stamp: float | None) -> Command:
+               qd_ff: np.ndarray | None, qdd_ff: np.ndarray | None, stamp: float | None) -> Command:
         """`step` after validation: the stages on float arrays."""
-        halt = self._halt_reason(q, target, twist, dt, qd_ff, stamp)
+        halt = self._halt_reason(q, target, twist, dt, qd_ff, qdd_ff, stamp)
         if halt is not None:
             return halt
         cyc = self._error(q, target, twist)
@@ -353,9 +358,10 @@ class ResolvedRateController:
 
     # --- stage 1: validation (shapes raise, values halt)
     def _validate(self, q: ArrayLike, target: ArrayLike | None, twist: ArrayLike | None, dt: float,
-                  qd_ff: ArrayLike | None) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None,
-                                                    float, np.ndarray | None]:
-        """Shapes and types: returns ``(q, target, twist, dt, qd_ff)`` as float arrays
+                  qd_ff: ArrayLike | None, qdd_ff: ArrayLike | None,
+                  ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, float,
+                             np.ndarray | None, np.ndarray | None]:
+        """Shapes and types: returns ``(q, target, twist, dt, qd_ff, qdd_ff)`` as float arrays
         (the caller's arrays are not copied when already float64) or raises
         `InputError`. Values (NaN, inf) are not checked here."""
         n = self._n
@@ -367,6 +373,8 @@ class ResolvedRateController:
         if q.shape != (n,):
             raise InputError(f"q must have shape ({n},), got {q.shape}", argument="q", value=q)
         try:
+            if isinstance(dt, (str, bytes)):  # float("1e-3") would parse: a period is a number
+                raise TypeError
             dt = float(dt)
         except (TypeError, ValueError):
             raise InputError(f"dt must be a number [s], got {dt!r}", argument="dt", value=dt) from None
@@ -387,9 +395,14 @@ class ResolvedRateController:
             if qd_ff.shape != (n,):
                 raise InputError(f"qd_ff must have shape ({n},), got {qd_ff.shape}",
                                  argument="qd_ff", value=qd_ff)
-        return q, target, twist, dt, qd_ff
+        if qdd_ff is not None:
+            qdd_ff = _float_array(qdd_ff, "qdd_ff", f"{n} numbers")
+            if qdd_ff.shape != (n,):
+                raise InputError(f"qdd_ff must have shape ({n},) [rad/s² or m/s²], got {qdd_ff.shape}",
+                                 argument="qdd_ff", value=qdd_ff)
+        return q, target, twist, dt, qd_ff, qdd_ff
 
-    def _halt_reason(self, q, target, twist, dt, qd_ff, stamp) -> Command | None:
+    def _halt_reason(self, q, target, twist, dt, qd_ff, qdd_ff, stamp) -> Command | None:
         """Values that bring a safe halt (non-finite inputs latch it, a stale target does
         not): returns the halt's `Command`, or None when the cycle may proceed."""
         if not (dt > 0.0 and math.isfinite(dt)):
@@ -409,6 +422,8 @@ class ResolvedRateController:
             bad = "twist"
         elif qd_ff is not None and not _finite_sum(qd_ff):
             bad = "qd_ff"
+        elif qdd_ff is not None and not _finite_sum(qdd_ff):
+            bad = "qdd_ff"
         if bad is not None:
             self._latched = f"non-finite {bad} (NaN or inf); reset() to resume"
             return self._halt(q, dt, self._latched)

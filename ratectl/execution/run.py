@@ -48,6 +48,7 @@ from typing import TextIO
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import positive_number as _positive
 from ..control import Command, ResolvedRateController
 from ..drivers.base import Driver, RobotState
 from ..errors import DriverError, InputError
@@ -72,20 +73,6 @@ def _check_driver(driver: object) -> None:
             argument="driver",
             value=driver,
         )
-
-
-def _positive(name: str, value: float) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(
-            f"{name} must be a positive number, got {value!r}", argument=name, value=value
-        ) from None
-    if not (v > 0.0 and math.isfinite(v)):
-        raise InputError(
-            f"{name} must be a positive finite number, got {value!r}", argument=name, value=value
-        )
-    return v
 
 
 def _is_tty(stream: TextIO) -> bool:

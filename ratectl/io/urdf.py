@@ -298,6 +298,11 @@ def _urdf_limits(el: ET.Element, jtype: str, what: str, label: str):
         raise ImportModelError(f"{label}: {what} ({jtype}) has no <limit> element; URDF requires "
                                "<limit lower upper velocity effort> (use type 'continuous' for an "
                                "unlimited revolute joint)", element=what)
+    if lo is None and hi is None:
+        raise ImportModelError(f"{label}: {what} ({jtype}) <limit> has neither lower nor upper: URDF "
+                               "reads both as 0, which leaves the joint no motion; give its range "
+                               "(or use type 'continuous' for an unlimited revolute joint, 'fixed' "
+                               "for none)", element=what)
     lo = 0.0 if lo is None else lo
     hi = 0.0 if hi is None else hi
     if not lo < hi:

@@ -63,6 +63,9 @@ def read_source(source: Any, kind: str) -> tuple[bytes | str, str, Path | None]:
         raise ImportModelError(
             f"expected a path to a {kind} file or its XML text, got {type(source).__name__}",
             element="file")
+    if not os.fspath(source).strip():
+        raise ImportModelError(f"the {kind} file name is empty: give a path to a {kind} file or its "
+                               "XML text", element="file")
     try:
         path = Path(source)
         exists = path.is_file()
@@ -73,6 +76,8 @@ def read_source(source: Any, kind: str) -> tuple[bytes | str, str, Path | None]:
         hint = ""
         if isinstance(source, str) and "<" in source[:200]:
             hint = " (XML text must start with '<')"
+        elif path.is_dir():
+            hint = " (that is a directory; give the file inside it)"
         raise ImportModelError(f"{kind} file not found: {str(path)[:200]!r}{hint}",
                                element=f"file {str(path)[:200]!r}")
     return read_file_capped(path, kind, MAX_BYTES), str(path), path.parent

@@ -9,10 +9,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import positive_number
 from ..errors import InputError
 from ..spatial import so3_log
 from .base import Path, _Geodesic
-from .checks import _pose, _positive, _vec3
+from .checks import _pose, _vec3
 
 __all__ = ['Arc']
 
@@ -73,7 +74,7 @@ class Arc(Path):
                              argument="orientation", value=orientation)
         self.orientation = orientation if _R_end is None else "interpolated"
         self.rot = _Geodesic(R0, w)
-        rho = _positive(rotation_length, "rotation_length")
+        rho = positive_number("rotation_length", rotation_length)
         L = math.hypot(self.radius * abs(angle), rho * self.rot.angle)
         self._setup(L, speed=speed, acceleration=acceleration, jerk=jerk, law=law,
                     rotation_length=rotation_length)

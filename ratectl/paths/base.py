@@ -8,9 +8,9 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import positive_number
 from ..errors import InputError
 from ..spatial import so3_exp, so3_log
-from .checks import _positive
 from .time_laws import make_time_law
 
 __all__ = ['Path', 'MAX_STEPS']
@@ -34,10 +34,10 @@ class Path:
     length: float
 
     def _setup(self, length: float, *, speed, acceleration, jerk, law, rotation_length) -> None:
-        self.speed = _positive(speed, "speed")
-        self.acceleration = _positive(acceleration, "acceleration")
-        self.jerk = None if jerk is None else _positive(jerk, "jerk")
-        self.rotation_length = _positive(rotation_length, "rotation_length")
+        self.speed = positive_number("speed", speed)
+        self.acceleration = positive_number("acceleration", acceleration)
+        self.jerk = None if jerk is None else positive_number("jerk", jerk)
+        self.rotation_length = positive_number("rotation_length", rotation_length)
         if law is None:
             law = "trapezoidal" if jerk is None else "jerk-limited"
         self.length = float(length)
@@ -81,11 +81,20 @@ class Path:
         T[:3, 3] = p
         return T
 
-    def twist_at(self, s: ArrayLike, *, sd: float = 1.0) -> np.ndarray:
+    def twist_at(self, s: ArrayLike, *, sd: float = 1.0, side: str = "after") -> np.ndarray:
         """Tool twist ``[dp/ds; ω_s]·ṡ`` (6,) at ``s`` for progress rate ``ṡ = sd`` [m/s]
-        (with the default sd = 1 it is the path tangent dP/ds)."""
-        _, _, dp, w = self._geometry(self._clamp(s))
+        (with the default sd = 1 it is the path tangent dP/ds). At a corner (`corners`) the
+        tangent has two values: ``side="after"`` (default) gives the outgoing one,
+        ``side="before"`` the incoming one (the limit from below); elsewhere both agree."""
+        if side not in ("after", "before"):
+            raise InputError(f"side must be 'after' or 'before', got {side!r}", argument="side", value=side)
+        s = self._clamp(s)
+        _, _, dp, w = self._geometry_before(s) if side == "before" else self._geometry(s)
         return np.concatenate([dp, w]) * float(sd)
+
+    def _geometry_before(self, s: float):
+        """`_geometry` with the incoming tangent at a corner (the limit from below)."""
+        return self._geometry(s)
 
     def curvature_twist_at(self, s: ArrayLike, *, h: float | None = None) -> np.ndarray:
         """Second derivative d²P/ds² as a twist-rate (6,) by central differences of
@@ -116,7 +125,7 @@ class Path:
         checked up front: more than ``max_steps`` raises `InputError`
         naming the duration and dt (instead of running out of time or memory later).
         Loops over a path (sampling, following it) call this before any work."""
-        dt = _positive(dt, "dt")
+        dt = positive_number("dt", dt)
         n = self.duration / dt
         if not n <= max_steps - 1:
             raise InputError(
@@ -128,59 +137,127 @@ class Path:
     def sample(self, dt: float, *, max_steps: int = MAX_STEPS):
         """Times, poses and twists of the nominal law every ``dt`` [s]: (t, (N,4,4), (N,6)).
         At most ``max_steps`` samples (see `steps`)."""
-        dt = _positive(dt, "dt")
+        dt = positive_number("dt", dt)
         n = self.steps(dt, max_steps=max_steps)
         t = np.minimum(np.arange(n) * dt, self.duration)
         return t, np.array([self.pose(x) for x in t]), np.array([self.twist(x) for x in t])
 
     # -- distance -------------------------------------------------------------
-    def closest(self, point: ArrayLike, *, s_hint: float | None = None, window: float | None = None) -> float:
-        """Path parameter of the point of the curve nearest to ``point`` (3,).
+    @property
+    def corners(self) -> np.ndarray:
+        """Path parameters [m] of the corners: inner points where the tangent dP/ds jumps
+        (sharp corners of `Waypoints` with ``blend=0``). A motion that stays on the path
+        must come to rest at each of them (the joint velocity q′ṡ would jump otherwise);
+        the governor plans ṡ = 0 there. Empty for smooth paths."""
+        return np.zeros(0)
 
-        Without ``s_hint``: a grid of 101 samples over the whole path, then Newton steps on
-        ``(p(s) − x)·p'(s) = 0``. With ``s_hint``: Newton steps from it only (a local
-        search, for tracking the nearest point along a motion), kept within
-        ``s_hint ± window``.
+    def _search_grid(self) -> np.ndarray:
+        """Samples of s for the global nearest-point search (101 over the path)."""
+        return np.linspace(0.0, self.length, 101)
+
+    def _pose_terms(self, s: float, x: np.ndarray, Rx: np.ndarray | None) -> tuple[float, ...]:
+        """(f, g, h, e², θ²) at s of the squared pose distance f = e² + ρ²θ², e² = ‖p(s) − x‖²,
+        θ² = ‖φ‖², φ = log(R(s)R_xᵀ) (ρ = ``rotation_length``; without ``Rx`` the position part
+        only): g = ½ df/ds exactly (dp/ds·(p − x) + ρ² ω_s·φ, because J_l(φ)ᵀφ = φ) and its
+        Gauss–Newton curvature h = ‖dp/ds‖² + ρ²‖ω_s‖²."""
+        p, R, dp, w = self._geometry(s)
+        e = p - x
+        e2, g, h, a2 = float(e @ e), float(dp @ e), float(dp @ dp), 0.0
+        if Rx is not None:
+            phi = so3_log(R @ Rx.T)
+            r2 = self.rotation_length ** 2
+            a2 = float(phi @ phi)
+            g += r2 * float(w @ phi)
+            h += r2 * float(w @ w)
+        return e2 + self.rotation_length ** 2 * a2, g, h, e2, a2
+
+    def _descend(self, s: float, x: np.ndarray, Rx: np.ndarray | None, lo: float, hi: float,
+                 step: float) -> tuple[float, float, float]:
+        """Local minimum (s, e², θ²) of the squared pose distance from ``s`` within [lo, hi]:
+        Gauss–Newton steps of at most ``step`` [m], halved until the distance decreases."""
+        cur = self._pose_terms(s, x, Rx)
+        tiny = 1e-13 * max(self.length, 1e-3)
+        for _ in range(40):
+            f, g, h = cur[:3]
+            if g == 0.0:
+                break
+            ds = -g / h if h > 1e-18 else -math.copysign(step, g)  # a cusp (dP/ds = 0): probe
+            ds = max(-step, min(step, ds))
+            while True:
+                s_new = min(max(s + ds, lo), hi)
+                if abs(s_new - s) <= tiny:
+                    return s, cur[3], cur[4]
+                new = self._pose_terms(s_new, x, Rx)
+                if new[0] <= f:
+                    break
+                ds *= 0.5
+            converged = abs(s_new - s) <= 1e-12 * max(self.length, 1e-3)
+            s, cur = s_new, new
+            if converged:
+                break
+        return s, cur[3], cur[4]
+
+    def _target(self, x: ArrayLike) -> tuple[np.ndarray, np.ndarray | None]:
+        """(position, rotation or None) of a point (3,) or a pose (4, 4)."""
+        a = np.asarray(x, dtype=float)
+        if a.shape == (4, 4):
+            return a[:3, 3], a[:3, :3]
+        if a.shape != (3,):
+            raise InputError(f"expected a point (3,) or a pose (4, 4), got shape {a.shape}",
+                             argument="point", value=x)
+        return a, None
+
+    def _start_estimate(self, x: np.ndarray, Rx: np.ndarray | None) -> tuple[float, float] | None:
+        """A closed-form (s, step) to start the global search from, or None (grid search)."""
+        return None
+
+    def closest(self, point: ArrayLike, *, s_hint: float | None = None, window: float | None = None) -> float:
+        """Path parameter s [m] of the point of the path nearest to ``point``.
+
+        ``point`` is a pose (4×4) or a position (3,). For a pose the distance is the
+        path's own metric, d² = ‖p(s) − p‖² + ρ²θ², θ the angle between R(s) and R and
+        ρ = ``rotation_length`` [m/rad] (the metric in which s is measured): a pure rotation,
+        or a path that passes the same position twice with different orientations, has a
+        well-defined nearest point. For a position (3,) only ‖p(s) − p‖ counts.
+
+        Without ``s_hint``: the best of a grid of samples (101, plus the knots of a
+        `Waypoints`), refined by Gauss–Newton steps — the global nearest point (the first
+        one where the path revisits a pose). With ``s_hint``: the local minimum reached
+        from it, within ``s_hint ± window`` (default: the whole path) — the search to use
+        along a motion, from the commanded s, where a path revisits a pose or turns back
+        on itself.
         """
-        x = np.asarray(point, dtype=float)
+        return self._nearest(point, s_hint, window)[0]
+
+    def _nearest(self, point: ArrayLike, s_hint: float | None, window: float | None):
+        """(s, e², θ²) of the nearest point (see `closest`)."""
+        x, Rx = self._target(point)
         L = self.length
         if L <= 0.0:
-            return 0.0
-        if s_hint is None:
-            lo, hi = 0.0, L
-            grid = np.linspace(lo, hi, 101)
-            d = [float(np.sum((self._geometry(g)[0] - x) ** 2)) for g in grid]
-            s = float(grid[int(np.argmin(d))])
-            step = (hi - lo) / 100.0
-        else:
+            return self._descend(0.0, x, Rx, 0.0, 0.0, 1e-9)
+        if s_hint is not None:
             s = self._clamp(s_hint)
             w = L if window is None else float(window)
             lo, hi = max(0.0, s - w), min(L, s + w)
-            step = max(w, 1e-9)
-        for _ in range(12):
-            p, _, dp, _ = self._geometry(s)
-            g2 = float(dp @ dp)
-            if g2 < 1e-18:
-                break
-            ds = -float((p - x) @ dp) / g2
-            ds = max(-step, min(step, ds))
-            s_new = min(max(s + ds, lo), hi)
-            if abs(s_new - s) < 1e-12:
-                s = s_new
-                break
-            s = s_new
-        return s
+            return self._descend(s, x, Rx, lo, hi, max(min(w, L / 20.0), 1e-9))
+        start = self._start_estimate(x, Rx)
+        if start is not None:
+            return self._descend(start[0], x, Rx, 0.0, L, start[1])
+        grid = self._search_grid()
+        f = [self._pose_terms(float(g), x, Rx)[0] for g in grid]
+        k = int(np.argmin(f))
+        lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, len(grid) - 1)])
+        return self._descend(float(grid[k]), x, Rx, lo, hi, max(hi - lo, 1e-9))
 
     def distance(self, T: ArrayLike, *, s_hint: float | None = None, window: float | None = None):
-        """Distance of the pose ``T`` from the path: ``(position [m], orientation [rad], s)`` where
-        s is the nearest point of the curve and the orientation error is the angle between
-        R and R(s)."""
+        """Distance of the pose ``T`` (4×4) from the path: ``(position [m], orientation [rad], s)``
+        at the nearest point s of the path in the pose metric of `closest` (searched near
+        ``s_hint`` when given); the orientation error is the angle between R and R(s)."""
         T = np.asarray(T, dtype=float)
-        s = self.closest(T[:3, 3], s_hint=s_hint, window=window)
-        p, R, _, _ = self._geometry(s)
-        dpos = float(np.linalg.norm(T[:3, 3] - p))
-        dang = float(np.linalg.norm(so3_log(R.T @ T[:3, :3])))
-        return dpos, dang, s
+        if T.shape != (4, 4):
+            raise InputError(f"T must be a pose (4, 4), got shape {T.shape}", argument="T", value=T)
+        s, e2, a2 = self._nearest(T, s_hint, window)
+        return math.sqrt(e2), math.sqrt(a2), s
 
     def __repr__(self) -> str:
         return (f"{type(self).__name__}(length={self.length:.4g} m, speed={self.speed:g} m/s, "

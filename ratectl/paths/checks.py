@@ -3,26 +3,10 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..errors import InputError
 from ..spatial import rigid_transform_defect
-
-
-def _positive(value, name: str) -> float:
-    try:
-        if isinstance(value, str | bytes) or np.iscomplexobj(value):
-            raise TypeError(name)  # no silent conversion of text or complex numbers
-        v = float(value)
-    except (TypeError, ValueError, OverflowError):
-        raise InputError(f"{name} must be a positive number, got {value!r}", argument=name,
-                         value=value) from None
-    if not (v > 0.0 and math.isfinite(v)):
-        raise InputError(f"{name} must be a positive finite number, got {value!r}", argument=name,
-                         value=value)
-    return v
 
 
 def _pose(T, name: str) -> np.ndarray:

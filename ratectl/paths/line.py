@@ -4,14 +4,14 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import positive_number
 from ..spatial import so3_log
 from .base import Path, _Geodesic
-from .checks import _pose, _positive
+from .checks import _pose
 
 __all__ = ['Line']
 
@@ -39,7 +39,7 @@ class Line(Path):
         self.p0 = self.T_start[:3, 3]
         self.dp = self.T_end[:3, 3] - self.p0
         self.rot = _Geodesic(self.T_start[:3, :3], so3_log(self.T_start[:3, :3].T @ self.T_end[:3, :3]))
-        rho = _positive(rotation_length, "rotation_length")
+        rho = positive_number("rotation_length", rotation_length)
         L = math.hypot(float(np.linalg.norm(self.dp)), rho * self.rot.angle)
         self._setup(L, speed=speed, acceleration=acceleration, jerk=jerk, law=law,
                     rotation_length=rotation_length)
@@ -51,11 +51,15 @@ class Line(Path):
         lam = s / L
         return self.p0 + lam * self.dp, self.rot.at(lam), self.dp / L, self.rot.w_base / L
 
-    def closest(self, point: ArrayLike, *, s_hint: Any = None, window: Any = None) -> float:
-        """Exact projection onto the segment (the orientation does not enter)."""
+    def _start_estimate(self, x, Rx):
+        """The exact nearest point of the segment for a position; for a pose, the minimiser of
+        ‖p(λ) − x‖² + ρ²‖λw − φ‖² (φ = log(R₀ᵀR_x)), exact when R_x lies on the geodesic."""
         L = self.length
-        d2 = float(self.dp @ self.dp)
-        if L == 0.0 or d2 == 0.0:
-            return super().closest(point, s_hint=s_hint, window=window)
-        lam = float((np.asarray(point, dtype=float) - self.p0) @ self.dp) / d2
-        return min(max(lam, 0.0), 1.0) * L
+        num, den = float((x - self.p0) @ self.dp), float(self.dp @ self.dp)
+        if Rx is not None:
+            r2 = self.rotation_length ** 2
+            num += r2 * float(self.rot.w @ so3_log(self.rot.R0.T @ Rx))
+            den += r2 * self.rot.angle ** 2
+        if L == 0.0 or den == 0.0:
+            return 0.0, max(L, 1e-9)
+        return min(max(num / den, 0.0), 1.0) * L, max(0.1 * L, 1e-9)

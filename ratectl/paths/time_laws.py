@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import math
 
+from ..checks import positive_number
 from ..errors import InputError
-from .checks import _positive
 
 __all__ = ['TimeLaw', 'Trapezoidal', 'JerkLimited', 'Quintic', 'make_time_law', 'LAWS']
 
@@ -21,11 +21,14 @@ class TimeLaw:
     Attributes:
         length: path length L [m].
         duration: T [s].
+        max_jerk: the largest |s⃛| of the law [m/s³]: inf for the trapezoid (its s̈ jumps),
+            the jerk limit of the jerk-limited law, 60L/T³ for the quintic (at both ends).
     """
 
     name = "base"
     length: float
     duration: float
+    max_jerk: float = math.inf
 
     def __call__(self, t: float) -> tuple[float, float, float]:
         """``(s, ṡ, s̈)`` at time ``t`` [s]; clamped to the ends outside [0, T]."""
@@ -52,7 +55,7 @@ class Trapezoidal(TimeLaw):
 
     def __init__(self, length: float, *, speed: float, acceleration: float) -> None:
         self.length = float(length)
-        v, a = _positive(speed, "speed"), _positive(acceleration, "acceleration")
+        v, a = positive_number("speed", speed), positive_number("acceleration", acceleration)
         L = self.length
         if L <= 0.0:
             self.vpeak, self.ta, self.duration, self.a = 0.0, 0.0, 0.0, a
@@ -84,10 +87,11 @@ class Quintic(TimeLaw):
 
     def __init__(self, length: float, *, speed: float, acceleration: float) -> None:
         self.length = float(length)
-        v, a = _positive(speed, "speed"), _positive(acceleration, "acceleration")
+        v, a = positive_number("speed", speed), positive_number("acceleration", acceleration)
         L = self.length
         T = max(15.0 * L / (8.0 * v), math.sqrt(10.0 * L / (math.sqrt(3.0) * a))) if L > 0 else 0.0
         self.duration = T
+        self.max_jerk = 60.0 * L / T / T / T if T > 0 else 0.0  # (no ** : it raises on overflow)
 
     def _eval(self, t):
         T, L = self.duration, self.length
@@ -109,8 +113,9 @@ class JerkLimited(TimeLaw):
         import ruckig
 
         self.length = float(length)
-        v, a, j = _positive(speed, "speed"), _positive(acceleration, "acceleration"), _positive(jerk, "jerk")
-        self.jerk = j
+        v, a = positive_number("speed", speed), positive_number("acceleration", acceleration)
+        j = positive_number("jerk", jerk)
+        self.jerk = self.max_jerk = j
         if self.length <= 0.0:
             self.duration = 0.0
             self._traj = None

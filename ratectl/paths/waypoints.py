@@ -56,8 +56,9 @@ class Waypoints(Path):
     segment lengths). On a segment ‖[dp/ds; ρ ω/ṡ]‖ = 1; inside a blend it is below 1 (a
     convex combination of two unit rates, and ‖J_l v‖ ≤ ‖v‖), so the tool never moves
     faster than ṡ in the metric of ``rotation_length`` ρ. ``blend=0`` gives sharp corners
-    through the waypoints (the tool stops at each corner only if the time law or governor
-    makes it).
+    through the waypoints, listed in `corners`: the tangent jumps there, so a motion that
+    stays on the path must stop at each (the governor plans ṡ = 0 there; the path's own
+    time law does not stop there).
 
     Args:
         poses: N ≥ 2 poses (N, 4, 4).
@@ -105,6 +106,19 @@ class Waypoints(Path):
         self._setup(float(self.knots[-1]), speed=speed, acceleration=acceleration, jerk=jerk, law=law,
                     rotation_length=rotation_length)
 
+    @property
+    def corners(self) -> np.ndarray:
+        """Path parameters [m] of the sharp corners: the inner waypoints without a blend
+        (``blend=0``) where the direction [Δp; w]/L of the path changes (see `Path.corners`)."""
+        out = [self.knots[i] for i in range(1, len(self.segments))
+               if self.blends[i] == 0.0 and np.linalg.norm(self._rate(i) - self._rate(i - 1)) > 1e-12]
+        return np.array(out, dtype=float)
+
+    def _search_grid(self) -> np.ndarray:
+        """101 samples over the path, and 9 on every segment (its knots included)."""
+        per = [np.linspace(a, b, 9) for a, b in zip(self.knots[:-1], self.knots[1:], strict=True)]
+        return np.unique(np.concatenate([super()._search_grid(), *per]))
+
     def _line(self, i: int, s: float):
         """Segment i extended beyond its ends: (p, R, dp/ds, ω/ṡ) at global s."""
         g = self.segments[i]
@@ -122,6 +136,12 @@ class Waypoints(Path):
                 if d > 0.0 and abs(s - self.knots[k]) < d:
                     return self._blend(k, s)
         return self._line(i, s)
+
+    def _geometry_before(self, s):
+        k = int(np.searchsorted(self.knots, s, side="left"))
+        if 1 <= k <= len(self.segments) - 1 and self.knots[k] == s and self.blends[k] == 0.0:
+            return self._line(k - 1, s)  # a sharp corner: the incoming segment at its end
+        return self._geometry(s)
 
     def _rate(self, i: int) -> np.ndarray:
         """Constant unit rate c = [Δp; w]/L (6,) of segment i, w in the segment's own axes."""

@@ -9,7 +9,9 @@ gives up *time* instead: it keeps the tool on the path and re-times the progress
     q̇ = q′ṡ,    q̈ = q′s̈ + q″ṡ²,    q⃛ = q′s⃛ + 3q″ṡs̈ + q‴ṡ³
 
 stay within ``velocity_margin·vmax``, ``acceleration_margin·amax`` (and, for a jerk-limited
-executor, jmax) on every joint, and within the path's own speed and acceleration limits.
+executor, jmax) on every joint, and within the path's own speed, acceleration and jerk
+limits (`Governor.progress_jerk_limit`): the governor *replaces* the path's time law by this
+progress, and keeps the law's limits.
 
 How (all done once, before the motion — `Governor.plan`):
 
@@ -17,10 +19,12 @@ How (all done once, before the motion — `Governor.plan`):
    following exact singularities wherever the path tangent lies in the range of J and q′
    stays bounded (the smooth branch; the crossings are listed with the branch taken), and
    stopping with a specific message only where the path leaves the reachable set or needs
-   unbounded joint speed. A path that ends at a singular pose is followed to it.
+   unbounded joint speed. A path that ends at a singular pose is followed to it. A sharp
+   corner of the path (`Path.corners`) is recorded twice, with the incoming and the
+   outgoing tangent.
 2. **Time-optimal admissible speed** (`reachability_profile`):
    reachability analysis on x = ṡ² as in TOPP-RA — backward controllable sets, greedy
-   forward pass — starting and ending at rest.
+   forward pass — starting and ending at rest, and at rest at every sharp corner.
 3. **Progress.** Without a smoother the progress s(t) *is* the time-optimal profile, sampled
    every control period. With a jerk-limited smoother (``check_jerk``) the progress is the
    profile's moving average over a window T that bounds the ``q′s⃛`` term of the joint jerk
@@ -29,7 +33,10 @@ How (all done once, before the motion — `Governor.plan`):
    ``|q‴_i|ṡ³ ≤ jmax_i`` is not used: it ignores that the terms cancel — on the
    velocity-limit curve next to a singularity q̇_i = q′_iṡ is constant, so the binding
    joint's jerk is zero however large q‴ is — and it made those plans 1.4–1.5× slower than
-   the unsmoothed ones where the check alone needs 1.15×.
+   the unsmoothed ones where the check alone needs 1.15×. With a jerk limit j of the
+   progress the progress is averaged too, over at least the shortest window that keeps
+   |s⃛| ≤ j (`_progress_jerk_window`), and the profile's s̈ is capped at √(ṡ_max j). The
+   average is taken piece by piece between sharp corners, so the progress rests at each.
 4. **Check.** The discrete joint motion the executor will command (secant velocities between
    planned configurations and their differences) is checked against ``check_fraction`` of
    every limit. Where it exceeds one, the margins are lowered *locally* — on the grid points
@@ -91,7 +98,10 @@ class GovernorPlan:
         complete: the plan reaches the end of the path and its joint path stays inside the
             position limits; within_limits: the planned motion meets every checked limit.
         message: what stopped it or what it exceeds ("" when neither).
-        info: read-only mapping with ``iterations``, ``grid_points``, ``jerk_ratio``.
+        info: read-only mapping with ``iterations``, ``grid_points``, ``jerk_ratio``,
+            ``check_fraction``, ``progress_jerk`` (the largest |s⃛| of the planned progress,
+            third differences [m/s³]), ``progress_jerk_limit`` (the limit it was planned to,
+            or None) and ``averaging_window`` (of a smoothed progress [s], 0 if not smoothed).
     """
 
     dt: float
@@ -158,8 +168,9 @@ class Governor:
     Args:
         velocity_margin: plan joint speeds to this fraction of vmax (room for feedback).
         acceleration_margin: plan joint accelerations to this fraction of amax.
-        jerk: jerk limit of the progress s⃛ [m/s³] for a jerk-limited executor (default: the
-            path's jerk; without one only the joints' jmax limit the jerk).
+        jerk: jerk limit of the progress s⃛ [m/s³] (default: the path's, see
+            `progress_jerk_limit`; without one the progress jerk is limited only through the
+            joints' jmax, and only with ``check_jerk``).
         max_joint_step: joint-path integration step [rad]; nullspace_gain: joint centring for
             redundant arms [1/m]; sigma_tolerance: ignored (feasibility comes from the
             range-space residual, see `joint_path`).
@@ -224,25 +235,47 @@ class Governor:
                 break
             _lower_locally(jp.s, chk.bad_s, mv, ma, speed=chk.rv > f or chk.rj > f,
                            accel=chk.ra > f or chk.rj > f)
+        progress = {"progress_jerk": _progress_jerk(s, dt),
+                    "progress_jerk_limit": self.progress_jerk_limit(path), "averaging_window": window}
         return _assemble(chain, path, jp, dt, prof, s, sd, sdd, q, chk, (float(mv.min()), float(ma.min())),
-                         it, self.check_fraction)
+                         it, self.check_fraction, progress)
+
+    def progress_jerk_limit(self, path: Path) -> float | None:
+        """The limit of |s⃛| the progress is planned to [m/s³], or None: this governor's
+        ``jerk`` if given, else the path's: its ``jerk`` or, for the quintic law, the law's
+        own largest jerk 60L/T³ (a smooth law asks for a smooth progress; the trapezoid
+        asks for none)."""
+        if self.jerk is not None:
+            return self.jerk
+        limits = [j for j in (path.jerk, path.law.max_jerk) if j is not None and math.isfinite(j) and j > 0]
+        return min(limits) if limits else None
 
     def _progress(self, jp: JointPath, path, lim, mv, ma, dt, window: float | None):
         """The speed profile at the current margins, the progress (s, ṡ, s̈) sampled every dt and
         the averaging window of a smoothed progress [s] (0 without smoothing; ``window``
-        None: chosen from this profile by `_averaging_window`)."""
+        None: chosen from this profile by `_averaging_window`, then kept).
+
+        The progress is smoothed for a jerk-limited executor (``check_jerk``) and wherever
+        the progress itself has a jerk limit (``jerk``, or the path's own ``jerk``): the
+        window is then at least the shortest one whose moving average keeps |s⃛| within that
+        limit (`_progress_jerk_window`)."""
         vmax, amax, _ = lim
+        jerk = self.progress_jerk_limit(path)
+        # with a jerk limit j the progress reaches at most s̈ = √(ṡ_max j) on the way to ṡ_max
+        acc = path.acceleration if jerk is None else min(path.acceleration, math.sqrt(path.speed * jerk))
         # a margin lowered locally lowers the path's own speed and acceleration there too
         prof = reachability_profile(jp, mv[:, None] * vmax, ma[:, None] * amax,
                                     path.speed * mv / self.velocity_margin,
-                                    path.acceleration * ma / self.acceleration_margin)
-        if not self.check_jerk:
+                                    acc * ma / self.acceleration_margin)
+        if not self.check_jerk and not jerk:
             return prof, prof.sample(dt), 0.0
         if window is None:
-            window = self._averaging_window(jp, path, lim, prof, dt=dt)
-        return prof, _smooth_progress(prof, dt=dt, window=window), window
+            window = self._averaging_window(jp, lim, prof, dt=dt) if self.check_jerk else 0.0
+        if jerk:
+            window = max(window, _progress_jerk_window(prof, jp, dt=dt, jerk=jerk))
+        return prof, _smooth_progress(prof, jp, dt=dt, window=window), window
 
-    def _averaging_window(self, jp: JointPath, path, lim, prof: SpeedProfile, *, dt: float) -> float:
+    def _averaging_window(self, jp: JointPath, lim, prof: SpeedProfile, *, dt: float) -> float:
         """Window T [s] of the moving average that makes the progress jerk-limited.
 
         Averaging s over T turns a jump Δs̈ of the profile's (piecewise constant) s̈ into
@@ -250,17 +283,13 @@ class Governor:
         the time-optimal profile is at most twice its peak, so
         T = 2 max_k,i |q′_i(s_k) s̈_k| / jmax_i / ``check_fraction``, but never more than
         2 ``acceleration_margin``·amax_i/jmax_i: near a singularity q′_i s̈ can exceed amax_i
-        where q″ṡ² cancels it, and there step 4 bounds what is left. With a jerk limit of
-        the progress (``jerk``, or the path's) T is at least 2 s̈_max/jerk. The motion takes
+        where q″ṡ² cancels it, and there step 4 bounds what is left. The motion takes
         about T longer than the profile; ``lim`` = (vmax, amax, jmax) per joint."""
         _, amax, jmax = lim
         s, _, sdd = prof.sample(dt)
         dq, _ = jp.derivatives(s)
         peak = 2.0 * float(np.max(np.abs(dq * sdd[:, None]) / jmax))
         window = min(peak, 2.0 * float(np.max(self.acceleration_margin * amax / jmax)))
-        jerk = self.jerk or path.jerk
-        if jerk:
-            window = max(window, 2.0 * path.acceleration / jerk)
         return max(window / self.check_fraction, 2.0 * dt)
 
 
@@ -321,7 +350,7 @@ def _lower_locally(grid, bad_s, mv, ma, *, speed: bool, accel: bool, factor: flo
 
 
 def _assemble(chain, path, jp, dt, prof: SpeedProfile, s, sd, sdd, q, chk: _Check, margins, iterations,
-              fraction) -> GovernorPlan:
+              fraction, progress) -> GovernorPlan:
     """The `GovernorPlan` with its messages."""
     qd = np.zeros_like(q)
     qd[:-1] = np.diff(q, axis=0) / dt
@@ -339,7 +368,7 @@ def _assemble(chain, path, jp, dt, prof: SpeedProfile, s, sd, sdd, q, chk: _Chec
         notes.append(f"the planned motion exceeds the limits after {iterations} rounds (|q̇|/vmax = "
                      f"{chk.rv:.3f}, |q̈|/amax = {chk.ra:.3f}{jerk})")
     info = {"iterations": iterations, "grid_points": len(jp.s),
-            "jerk_ratio": None if math.isnan(chk.rj) else chk.rj, "check_fraction": fraction}
+            "jerk_ratio": None if math.isnan(chk.rj) else chk.rj, "check_fraction": fraction, **progress}
     return GovernorPlan(dt=dt, t=t, s=s, sd=sd, sdd=sdd, q=q, qd_ff=qd, joint_path=jp, x_limit=prof.x,
                         nominal_duration=path.duration, duration=float(t[-1]),
                         optimal_duration=prof.duration, velocity_ratio=chk.rv, acceleration_ratio=chk.ra,
@@ -347,24 +376,72 @@ def _assemble(chain, path, jp, dt, prof: SpeedProfile, s, sd, sdd, q, chk: _Chec
                         within_limits=within, message="; ".join(notes), info=info)
 
 
-def _smooth_progress(prof: SpeedProfile, *, dt: float, window: float):
+def _pieces(prof: SpeedProfile, jp: JointPath, dt: float):
+    """The progress sampled every dt piece by piece between the corners of the path (where the
+    profile is at rest): a list of s arrays, each from rest to rest, its first sample at
+    the piece's start and its last at the piece's end (the last interval ≤ dt)."""
+    inner = np.unique(prof.t[jp.rest_points]) if len(jp.rest_points) else np.zeros(0)
+    bounds = np.concatenate([[0.0], inner[(inner > 0.0) & (inner < prof.duration)], [prof.duration]])
+    out = []
+    for ta, tb in zip(bounds[:-1], bounds[1:], strict=True):
+        M = int(math.ceil((tb - ta) / dt - 1e-9))
+        s = prof.at(np.minimum(ta + np.arange(M + 1) * dt, tb))[0]
+        out.append(s)
+    out[-1][-1] = prof.s[-1]
+    return out
+
+
+def _smooth_progress(prof: SpeedProfile, jp: JointPath, *, dt: float, window: float):
     """Jerk-limited progress: the time-optimal s(t) averaged over a moving window of T seconds.
 
     The profile's s̈ is piecewise constant; the moving average s_T(t) = (1/T)∫_{t−T}^{t} s dτ has a
     continuous s̈ and s⃛ = (s̈(t) − s̈(t − T))/T. Where the joint accelerations q′s̈ stay within
     amax, the q′s⃛ term of the joint jerk is then within 2 amax/T, so T = 2 amax/jmax (the
     default ``window``) bounds it; the motion takes T longer and still starts and ends at rest.
-    The other terms (3q″ṡs̈, q‴ṡ³) are left to the speed profile and the check."""
-    s, _, _ = prof.sample(dt)
+    The other terms (3q″ṡs̈, q‴ṡ³) are left to the speed profile and the check. The average
+    is taken piece by piece between the corners of the path (`_pieces`), so the smoothed
+    progress comes to rest at each corner too (an average across one would not stop there)."""
     W = max(int(math.ceil(window / dt)), 2)
-    padded = np.concatenate([np.zeros(W - 1), s, np.full(W - 1, s[-1])])
-    c = np.concatenate([[0.0], np.cumsum(padded)])
-    sf = (c[W:] - c[:-W]) / W
-    sf[0], sf[-1] = 0.0, s[-1]
+    parts = []
+    for i, s in enumerate(_pieces(prof, jp, dt)):
+        padded = np.concatenate([np.full(W - 1, s[0]), s, np.full(W - 1, s[-1])])
+        c = np.concatenate([[0.0], np.cumsum(padded)])
+        sf = (c[W:] - c[:-W]) / W
+        sf[0], sf[-1] = s[0], s[-1]
+        parts.append(sf if i == 0 else sf[1:])
+    sf = np.concatenate(parts)
     sd = np.gradient(sf, dt)
     sdd = np.gradient(sd, dt)
     sd[0] = sd[-1] = sdd[0] = sdd[-1] = 0.0
     return sf, sd, sdd
+
+
+def _progress_jerk(s: np.ndarray, dt: float) -> float:
+    """Largest |s⃛| of a progress sampled every dt: its third differences [m/s³]."""
+    return float(np.max(np.abs(np.diff(s, 3)))) / dt**3 if len(s) > 3 else 0.0
+
+
+def _progress_jerk_window(prof: SpeedProfile, jp: JointPath, *, dt: float, jerk: float) -> float:
+    """The shortest averaging window T [s] (`_smooth_progress`) whose progress has |s⃛| ≤ ``jerk``.
+
+    A window T turns the profile's jumps of s̈ into s⃛ = Δs̈/T. On a trapezoid the jumps are
+    s̈_max each and T = s̈_max/jerk gives exactly the jerk-limited (S-curve) law of the same
+    speed and acceleration; a jump from +s̈_max to −s̈_max (no cruise) needs up to twice
+    that. Windows between the two are tried — the first four periods, then steps of about
+    5 % — and the first whose sampled progress meets the limit is taken (2 s̈_max/jerk
+    always does)."""
+    umax = float(np.max(np.abs(prof.u))) if len(prof.u) else 0.0
+    if umax <= 0.0:
+        return 0.0
+    w0 = max(int(math.ceil(umax / (jerk * dt))), 2)
+    w1 = max(int(math.ceil(2.0 * umax / (jerk * dt))), w0)
+    # the first few periods above the lower bound (sampling moves the profile's kinks by < dt),
+    # then steps of about 5 %
+    candidates = np.concatenate([w0 + np.arange(4), np.round(np.geomspace(w0, w1, 16))]).astype(int)
+    for W in np.unique(candidates[candidates <= w1]):
+        if _progress_jerk(_smooth_progress(prof, jp, dt=dt, window=W * dt)[0], dt) <= jerk * (1 + 1e-9):
+            return float(W * dt)
+    return float(w1 * dt)
 
 
 def plan(chain: Chain, path: Path, q0: ArrayLike, *, dt: float, **options: Any) -> GovernorPlan:

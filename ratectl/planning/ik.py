@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import positive_number as _positive
 from ..errors import InputError
 from ..spatial import pose_error_into, rigid_transform_defect
 
@@ -63,17 +64,6 @@ class IKResult:
         return (f"IK {state} in {self.iterations} iterations: {self.position_error * 1e3:.3g} mm, "
                 f"{math.degrees(self.orientation_error):.3g}° from the target"
                 f"{'' if self.within_limits else ', outside the joint limits'}")
-
-
-def _positive(name: str, value: object, *, allow_inf: bool = False) -> float:
-    try:
-        v = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        v = math.nan
-    if not v > 0.0 or (not allow_inf and not math.isfinite(v)):
-        allowed = "a positive number (inf allowed)" if allow_inf else "a positive finite number"
-        raise InputError(f"{name} must be {allowed}, got {value!r}", argument=name, value=value)
-    return v
 
 
 def ik(chain: Chain, T_target: Any, q0: ArrayLike, *, tol: float | tuple[float, float] = (1e-9, 1e-9),

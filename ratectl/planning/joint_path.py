@@ -95,7 +95,9 @@ class JointPath:
     """The joint path q(s) along a Cartesian path (step 1 of the governor); immutable.
 
     Attributes:
-        s: (N,) path parameters [m], increasing from 0.
+        s: (N,) path parameters [m], non-decreasing from 0; a corner of the path (`Path.corners`)
+            appears twice in a row, first with the incoming tangent in ``dq``, then with the
+            outgoing one (the derivatives are taken piece by piece between corners).
         q: (N, n) joint positions with fk(q[k]) = P(s[k]) (to ~1e-10).
         dq: (N, n) q′(s) = dq/ds [rad/m]; ddq: (N, n) q″(s) [rad/m²]; dddq: (N, n) q‴(s)
             [rad/m³] (differences of q′).
@@ -123,6 +125,13 @@ class JointPath:
     def __post_init__(self) -> None:
         for name in ("s", "q", "dq", "ddq", "dddq", "sigma_min", "residual"):
             object.__setattr__(self, name, read_only(getattr(self, name)))
+
+    @property
+    def rest_points(self) -> np.ndarray:
+        """Grid indices where the progress must be at rest (ṡ = 0): both entries of every
+        corner (the joint velocity q′ṡ would jump there otherwise)."""
+        dup = np.flatnonzero(np.diff(self.s) == 0.0)
+        return np.union1d(dup, dup + 1)
 
     def interpolate(self, s: np.ndarray | float) -> np.ndarray:
         """q at path parameters ``s`` (scalar or (M,)) by cubic Hermite interpolation of q, q′."""
@@ -231,17 +240,18 @@ class _Integrator:
             return self.nullspace_gain * self.centring(q)
         return dq_prev if dq_prev is not None else np.zeros(self.n)
 
-    def tangent(self, q: np.ndarray | float, s: np.ndarray | float, dq_prev: Any):
+    def tangent(self, q: np.ndarray | float, s: np.ndarray | float, dq_prev: Any, side: str = "after"):
         _, J = self.chain.fk_jacobian(q)
-        return _tangent(J, self.path.twist_at(s), self.base(q, dq_prev))
+        return _tangent(J, self.path.twist_at(s, side=side), self.base(q, dq_prev))
 
-    def step(self, q: np.ndarray | float, s: np.ndarray | float, dq: Any):
-        """One accepted step (s1, q1) from (s, q) with tangent dq, or None."""
-        h = min(self.max_step, self.L - s, self.max_joint_step / max(float(np.max(np.abs(dq))), 1e-12))
+    def step(self, q: np.ndarray | float, s: np.ndarray | float, dq: Any, stop: float):
+        """One accepted step (s1, q1) from (s, q) with tangent dq, s1 ≤ ``stop`` (the next corner
+        or the end, landed on exactly), or None."""
+        h = min(self.max_step, stop - s, self.max_joint_step / max(float(np.max(np.abs(dq))), 1e-12))
         while h > 1e-10 * max(self.L, 1e-3):
-            s1 = s + h if self.L - (s + h) > 1e-12 else self.L
+            s1 = s + h if stop - (s + h) > 1e-12 else stop
             qp = q + (s1 - s) * dq
-            dqp, _, _ = self.tangent(qp, s1, dq)
+            dqp, _, _ = self.tangent(qp, s1, dq, side="before")
             if np.max(np.abs(dqp - dq)) > 0.1 * max(float(np.max(np.abs(dq))), 1.0) and h > 1e-7:
                 h *= 0.5  # q′ changes fast (near a singularity): a finer grid resolves q″
                 continue
@@ -261,8 +271,11 @@ class _Integrator:
         self.RHO.append(rho)
 
     def run(self, q: np.ndarray) -> tuple[bool, str, bool]:
-        """Integrate from q at s = 0; returns (complete, message, singular_end)."""
+        """Integrate from q at s = 0; returns (complete, message, singular_end). Each corner of
+        the path (`Path.corners`) is landed on and recorded twice: with the incoming tangent,
+        then (at the same s and q) with the outgoing one."""
         s, dq = 0.0, None
+        stops = [float(c) for c in self.path.corners if 0.0 < c < self.L] + [self.L]
         while True:
             dq, smin, rho = self.tangent(q, s, dq)
             self.record(s, q, dq, smin, rho)
@@ -270,10 +283,14 @@ class _Integrator:
                 return True, "", False
             if len(self.S) >= self.max_points:
                 return False, f"too many integration points ({self.max_points}) at s = {s:.6g} m", False
-            nxt = None if np.max(np.abs(dq)) > _QPRIME_MAX else self.step(q, s, dq)
+            nxt = None if np.max(np.abs(dq)) > _QPRIME_MAX else self.step(q, s, dq, stops[0])
             if nxt is None:
                 return self.stopped(q, s, dq, smin, rho)
             s, q = nxt
+            if s == stops[0] and len(stops) > 1:  # on a corner: its incoming side first
+                dq, smin, rho = self.tangent(q, s, dq, side="before")
+                self.record(s, q, dq, smin, rho)
+                stops.pop(0)
 
     def stopped(self, q: np.ndarray | float, s: np.ndarray | float, dq: Any, smin: Any, rho: Any):
         """The integration cannot go on from (s, q): a singular end, or a stop that says why."""
@@ -300,7 +317,16 @@ class _Integrator:
 
 
 def _differences(S, D):
-    """Central differences dD/dS on a non-uniform grid (one-sided at the ends)."""
+    """dD/dS on a non-uniform grid, piece by piece between corners (where S repeats)."""
+    out = np.zeros_like(D)
+    cuts = np.concatenate([[0], np.flatnonzero(np.diff(S) == 0.0) + 1, [len(S)]])
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+        out[a:b] = _differences_smooth(S[a:b], D[a:b])
+    return out
+
+
+def _differences_smooth(S, D):
+    """Central differences dD/dS on a non-uniform, increasing grid (one-sided at the ends)."""
     out = np.zeros_like(D)
     if len(S) >= 3:
         out[1:-1] = (D[2:] - D[:-2]) / (S[2:] - S[:-2])[:, None]

@@ -28,6 +28,10 @@ to time-optimal path parameterization based on reachability analysis", IEEE T-RO
 
 Both passes are closed-form per stage (numpy only). The time of a segment is
 Δt_k = 2Δ_k / (√x_k + √x_{k+1}).
+
+At a corner of the path (`JointPath.rest_points`: the grid point appears twice, with the
+incoming and the outgoing q′) the maximum-velocity curve is set to 0, so the profile comes
+to rest there and leaves from rest; the zero-length stage between the two entries keeps x.
 """
 
 from __future__ import annotations
@@ -73,7 +77,13 @@ class SpeedProfile:
     def sample(self, dt: float):
         """(s, ṡ, s̈) at t = 0, dt, 2dt, … up to the end (the last sample at the end, at rest)."""
         K = int(np.ceil(self.duration / dt - 1e-9)) + 1
-        tk = np.minimum(np.arange(K) * dt, self.duration)
+        s, sd, sdd = self.at(np.minimum(np.arange(K) * dt, self.duration))
+        s[-1], sd[-1] = self.s[-1], 0.0
+        return s, sd, sdd
+
+    def at(self, t: np.ndarray):
+        """(s, ṡ, s̈) at the times ``t`` (M,) [s] within [0, duration]."""
+        tk = np.asarray(t, dtype=float)
         i = np.clip(np.searchsorted(self.t, tk, side="right") - 1, 0, len(self.s) - 2)
         tau = tk - self.t[i]
         sd0 = np.sqrt(self.x[i])
@@ -84,8 +94,7 @@ class SpeedProfile:
         h = self.s[i + 1] - self.s[i]
         s = np.where(self.rest[i], self.s[i] + h * r * r * (3.0 - 2.0 * r), s)
         sd = np.where(self.rest[i], 6.0 * h * r * (1.0 - r) / T, sd)
-        s[-1], sd[-1] = self.s[-1], 0.0
-        return s, sd, self.u[i]
+        return s, sd, self.u[i].copy()
 
 
 def constraint_rows(jp: JointPath, vlim: Any, alim: Any, path_speed: Any, path_acc: Any):
@@ -171,6 +180,7 @@ def reachability_profile(jp: JointPath, vlim: Any, alim: Any, path_speed: Any, p
     """
     a, b, c, xv = constraint_rows(jp, vlim, alim, path_speed, path_acc)
     mvc = np.minimum(xv, accel_mvc(a, b, c))
+    mvc[jp.rest_points] = 0.0  # corners: at rest
     S = np.asarray(jp.s, dtype=float)
     N = len(S)
     lo, hi = _controllable(a, b, c, mvc, S, x_end)
@@ -179,6 +189,9 @@ def reachability_profile(jp: JointPath, vlim: Any, alim: Any, path_speed: Any, p
     x[0] = min(max(x_start, lo[0]), max(hi[0], 0.0))
     for k in range(N - 1):
         d2 = 2.0 * (S[k + 1] - S[k])
+        if d2 == 0.0:  # the two entries of a corner
+            x[k + 1] = x[k]
+            continue
         ulo, uhi = _u_bounds(a[k], b[k], c[k], x[k])
         target_hi = max(hi[k + 1], lo[k + 1])
         uk = min(uhi, (target_hi - x[k]) / d2)
@@ -187,15 +200,15 @@ def reachability_profile(jp: JointPath, vlim: Any, alim: Any, path_speed: Any, p
         u[k] = (x[k + 1] - x[k]) / d2
     sq = np.sqrt(x)
     dS = np.diff(S)
-    with np.errstate(divide="ignore"):
-        dt = 2.0 * dS / (sq[:-1] + sq[1:])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dt = np.where(dS > 0.0, 2.0 * dS / (sq[:-1] + sq[1:]), 0.0)
     rest = np.zeros(N - 1, dtype=bool)
     for k in np.flatnonzero(x[:-1] + x[1:] < 1e-8).tolist():
         # nearly from rest to rest (a tiny segment at a singular end): accelerating and braking
         # at the acceleration the rows allow at x = 0 takes t = 2√(Δ/u₀), if that is shorter
         u0 = max(_u_bounds(a[k], b[k], c[k], 0.0)[1], 1e-9)
         t_rest = 2.0 * math.sqrt(dS[k] / u0)
-        if t_rest < dt[k]:
+        if dS[k] > 0.0 and t_rest < dt[k]:
             dt[k], rest[k] = t_rest, True
     t = np.concatenate([[0.0], np.cumsum(dt)])
     return SpeedProfile(s=S, x=x, u=u, mvc=mvc, t=t, duration=float(t[-1]),

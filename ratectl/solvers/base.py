@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import lapack as _lapack
 
+from ..checks import positive_number as _positive  # noqa: F401  (the solvers import it from here)
 from ..errors import InputError, RatectlError, SolverError
 from ..model.limits import Limits
 
@@ -339,21 +340,6 @@ def _check_finite(J, xi):
         raise InputError("J must be finite (got NaN or inf)", argument="J", value=J)
     if not np.all(np.isfinite(xi)):
         raise InputError("xi must be finite (got NaN or inf)", argument="xi", value=xi)
-
-
-def _positive(name, value, *, allow_zero=False):
-    try:
-        if isinstance(value, str | bytes) or np.iscomplexobj(value):
-            raise TypeError(name)
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a number, got {value!r}", argument=name, value=value) from None
-    ok = (v >= 0 if allow_zero else v > 0) and math.isfinite(v)
-    if not ok:
-        kind = "non-negative" if allow_zero else "positive"
-        raise InputError(f"{name} must be a finite {kind} number, got {value!r}", argument=name,
-                         value=value)
-    return v
 
 
 def _weights(task_weights, joint_weights):

@@ -142,8 +142,8 @@ class AdaptiveDLS(Solver):
                 raise InputError("mode='manipulability' needs manipulability_threshold (w₀, the "
                                  "manipulability below which damping starts)",
                                  argument="manipulability_threshold", value=None)
-            self.manipulability_threshold = _positive("manipulability_threshold",
-                                                      manipulability_threshold)
+            self.manipulability_threshold: float | None = _positive("manipulability_threshold",
+                                                                    manipulability_threshold)
         else:
             self.manipulability_threshold = manipulability_threshold
         self._lm2 = self.max_damping**2

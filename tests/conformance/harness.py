@@ -1,7 +1,7 @@
 """The user's servo loop, measured: step targets on an arm, every limit checked.
 
 One *case* is an arm, a start q0, a step target (1–20 cm in some direction, a turn of up
-to 30°), ``smoothing`` off or on and a period dt. :func:`run_case` runs the loop a user
+to 30°), ``smoothing`` off or on and a period dt. `run_case` runs the loop a user
 writes, ``cmd = ctrl.step(q, target=T, dt=dt); q = cmd.q_next``, for ``duration`` seconds
 and measures what the acceptance asks: the settling time (from then on within 0.1 mm and
 0.01° of the target), the overshoot along the step, and the largest ratios |q̇|/vmax and
@@ -97,7 +97,7 @@ def make_cases(name: str, chain, count: int, *, seed: int = 0, steps=(0.01, 0.2)
                max_turn=MAX_TURN) -> list[Case]:
     """``count`` reachable step targets for ``chain``: a random regular start inside the
     limits, a step of random length in ``steps`` [m] in a random direction and a random
-    turn up to ``max_turn``; kept only if :func:`ratectl.ik` reaches it from the start with
+    turn up to ``max_turn``; kept only if `ratectl.ik` reaches it from the start with
     a regular, in-range joint motion. Arms with fewer than 6 joints get targets fk(q1) at a
     joint offset scaled to the step length (their reachable poses)."""
     rng = np.random.default_rng(seed)

@@ -353,11 +353,12 @@ def test_the_stages_of_a_cycle_are_separate_methods(ur5e):
     ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.Inverse())
     T = ur5e.fk(Q_REG)
     target = _shifted(T, [0.001, 0.0, 0.0])
-    q, tgt, tw, dt, qd_ff = ctrl._validate(list(Q_REG), target, None, "0.001", None)
-    assert q.dtype == float and dt == 1e-3
+    q, tgt, tw, dt, qd_ff, qdd_ff = ctrl._validate(list(Q_REG), target, None, np.float32(1e-3), None, None)
+    assert q.dtype == float and dt == pytest.approx(1e-3)
+    dt = 1e-3
     with pytest.raises(InputError):
-        ctrl._validate(Q_REG, np.eye(3), None, 1e-3, None)
-    assert ctrl._halt_reason(q, tgt, tw, dt, qd_ff, None) is None
+        ctrl._validate(Q_REG, np.eye(3), None, 1e-3, None, None)
+    assert ctrl._halt_reason(q, tgt, tw, dt, qd_ff, qdd_ff, None) is None
     cyc = ctrl._error(q, tgt, tw)
     assert np.allclose(cyc.e, rc.spatial.pose_error(target, T)) and np.allclose(cyc.xi, ctrl.gain * cyc.e)
     assert ctrl._solve(cyc, q, dt, None) is None
@@ -471,3 +472,33 @@ def test_only_the_plain_qp_takes_the_validated_entry(ur5e, solver_type):
             assert cmd.qd[0] <= bound + 1e-7
             q = cmd.q_next
         assert cmd.qd[0] == pytest.approx(bound, rel=2e-2)  # the plain QP (damped), or the row
+@pytest.mark.parametrize("options", [
+    {"gain": [1.0] * 5}, {"gain": "fast"}, {"position_tolerance": -1.0}, {"orientation_tolerance": 0.0},
+    {"timeout": 0.0}, {"timeout": float("nan")}, {"timeout": "0.1"}, {"singular_sigma": -0.1},
+])
+def test_bad_options_are_refused_by_name(ur5e, options):
+    (name, value), = options.items()
+    with pytest.raises(InputError) as info:
+        rc.ResolvedRateController(ur5e, **options)
+    assert info.value.argument == name and name in str(info.value)
+
+
+def test_a_timeout_of_inf_means_targets_never_go_stale(ur5e):
+    ctrl = rc.ResolvedRateController(ur5e, timeout=float("inf"))
+    cmd = ctrl.step(Q_REG, target=ur5e.fk(Q_REG), dt=1e-3, stamp=-1e9)
+    assert cmd.status != "halted"
+
+
+@pytest.mark.parametrize("smoothing", [False, True])
+def test_joint_acceleration_feed_forward_is_checked_like_the_other_inputs(ur5e, smoothing):
+    ctrl = rc.ResolvedRateController(ur5e, smoothing=smoothing)
+    with pytest.raises(InputError, match=r"qdd_ff must have shape \(6,\)"):
+        ctrl.step(Q_REG, twist=np.zeros(6), dt=1e-3, qdd_ff=np.zeros(5))
+    with pytest.raises(InputError, match="dt must be a number"):
+        ctrl.step(Q_REG, twist=np.zeros(6), dt="1e-3")  # type: ignore[arg-type]
+    for bad in (np.inf, np.nan):
+        ctrl.reset()
+        qdd = np.zeros(6)
+        qdd[2] = bad
+        cmd = ctrl.step(Q_REG, twist=np.zeros(6), dt=1e-3, qdd_ff=qdd)
+        assert cmd.status == "halted" and "non-finite qdd_ff" in cmd.reason

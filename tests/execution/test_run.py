@@ -38,9 +38,11 @@ def test_follows_a_line_on_the_measured_state(arm):
     ex = rc.run(drv, path=line, rate_hz=500.0)
     assert ex.completed, ex.message
     assert ex.source == "run"
-    # the measured joint positions, through the chain, stay on the line (the scripted arm moves
-    # in real time: a stall of the loop on a busy machine shows as path error, hence 0.5 mm)
-    assert ex.max_position_error < 5e-4
+    # the measured joint positions, through the chain, stay on the line. The scripted arm moves
+    # in real time: a stall of the loop on a busy machine lets it coast at the last command,
+    # at most the path speed times the stall (3.3 mm was seen at a load of 4 on 2 cores)
+    stall = max(0.0, float(np.max(ex.periods)) - 2e-3)
+    assert ex.max_position_error < 5e-4 + line.speed * stall
     assert ex.info["end_position_error"] < 1e-4
     # the measured q is what the arm really did (the scripted arm is exact)
     assert np.allclose(ex.q_measured[-1], drv.q, atol=1e-3)

@@ -222,6 +222,15 @@ def test_unsupported_urdf_structures_name_the_element():
       <joint name="j2" type="continuous"><parent link="b"/><child link="c"/></joint></robot>"""
     _raises(rc.Chain.from_urdf, two_parents, element="joint 'j2'", match="two joints")
     _raises(rc.Chain.from_urdf, "<sdf/>", element="<sdf>")
+    no_range = no_limit.replace('</joint>', '<limit effort="1" velocity="1"/></joint>')
+    _raises(rc.Chain.from_urdf, no_range, element="joint 'j1'", match="neither lower nor upper")
+
+
+@pytest.mark.parametrize("loader", [rc.Chain.from_urdf, rc.Chain.from_mjcf])
+def test_an_empty_name_or_a_directory_is_named_as_such(loader):
+    _raises(loader, "", element="file", match="file name is empty")
+    _raises(loader, "  ", element="file", match="file name is empty")
+    _raises(loader, DATA, element=f"file {str(DATA)!r}", match="is a directory")
 
 
 def test_unsupported_mjcf_structures_name_the_element():

@@ -247,3 +247,124 @@ def test_path_input_errors():
     line = rc.paths.Line(T, _pose(np.eye(3), [1, 0, 0]), speed=1, acceleration=1)
     with pytest.raises(InputError, match="finite"):
         line.pose_at(float("nan"))
+
+
+# ---------------------------------------------------------------------- nearest point (pose metric)
+def _pose_metric(path, s, T):
+    """d² = ‖p(s) − p‖² + ρ²θ² of the pose T from the path point at s."""
+    P = path.pose_at(s)
+    return float(np.sum((P[:3, 3] - T[:3, 3]) ** 2)
+                 + path.rotation_length**2 * rotation_angle(P[:3, :3].T @ T[:3, :3]) ** 2)
+
+
+def _metric_paths():
+    """Paths on which a position-only search is ambiguous or wrong: a pure rotation, a tour that
+    rotates on the spot and comes back to its start, an out-and-back with a blended reversal —
+    and ordinary ones (a line that turns, an arc that rotates, blended and sharp waypoints)."""
+    T0 = _pose(rotx(math.pi), [0.4, 0.0, 0.3])
+    Tr = _pose(rotx(0.6) @ T0[:3, :3], T0[:3, 3])
+    Tm = _pose(T0[:3, :3], T0[:3, 3] + [0.0, 0.1, 0.0])
+    T1 = _pose(rotz(0.4) @ T0[:3, :3], T0[:3, 3] + [0.15, -0.1, 0.05])
+    kw = dict(speed=0.1, acceleration=1.0)
+    return {
+        "pure rotation": rc.paths.Line(T0, Tr, **kw),
+        "rotate, move, return": rc.paths.Waypoints([T0, Tr, Tm, T0], blend=0.02, **kw),
+        "out and back": rc.paths.Waypoints([T0, Tm, T0 @ transform(None, np.array([0, 0, 1e-4]))],
+                                           blend=0.03, **kw),
+        "line that turns": rc.paths.Line(T0, T1, **kw),
+        "arc that rotates": rc.paths.Arc(T0, centre=T0[:3, 3] + [0.0, 0.1, 0.0], axis=[0, 0, 1],
+                                         angle=1.5 * math.pi, orientation="rotate", **kw),
+        "sharp waypoints": rc.paths.Waypoints([T0, T1, Tm], blend=0.0, **kw),
+        "blended corners": _corner_path()[1],
+    }
+
+
+@pytest.mark.parametrize("name", list(_metric_paths()))
+def test_a_pose_on_the_path_is_found_where_it_is(name):
+    """distance(pose_at(s)) is (0, 0, s) from a hint near s (the search `follow` makes) — even where
+    the same position (or the same pose) comes back elsewhere — and the global search finds a
+    point at zero distance (the first one where the path revisits a pose)."""
+    path = _metric_paths()[name]
+    for s in np.linspace(0.0, path.length, 23):
+        T = path.pose_at(s)
+        hint = min(max(s + 0.003 * path.length * (-1) ** int(s * 1e3), 0.0), path.length)
+        dpos, dang, s_found = path.distance(T, s_hint=hint, window=0.05 * path.length)
+        assert dpos < 1e-9 and dang < 1e-8 and s_found == pytest.approx(s, abs=1e-7), (s, s_found)
+        dpos, dang, s_glob = path.distance(T)
+        assert dpos < 1e-9 and dang < 1e-8, (s, s_glob)
+        assert np.allclose(path.pose_at(s_glob), T, atol=1e-8)
+
+
+@pytest.mark.parametrize("name", list(_metric_paths()))
+def test_the_nearest_point_is_a_minimum_of_the_pose_metric(name):
+    """For poses off the path (moved by up to 2 mm and turned by up to 2°), the returned s is a
+    local minimum of d² = ‖Δp‖² + ρ²θ² and no farther than the point it was perturbed from."""
+    path = _metric_paths()[name]
+    rng = np.random.default_rng(7)
+    h = 1e-5 * path.length
+    for s in np.linspace(0.02, 0.98, 13) * path.length:
+        P = path.pose_at(s)
+        T = _pose(so3_exp_(rng.normal(size=3) * 0.02) @ P[:3, :3], P[:3, 3] + rng.normal(size=3) * 1e-3)
+        s_near = path.closest(T, s_hint=s, window=0.25 * path.length)
+        f = _pose_metric(path, s_near, T)
+        assert f <= _pose_metric(path, s, T) + 1e-15
+        for x in (s_near - h, s_near + h):
+            if 0.0 <= x <= path.length:
+                assert f <= _pose_metric(path, x, T) + 1e-15, (s, s_near)
+
+
+def so3_exp_(w):
+    from ratectl.spatial import so3_exp
+
+    return so3_exp(w)
+
+
+def test_pure_rotation_distance_regression():
+    """The new-user report: a 0.6 rad rotation on the spot; pose_at(L/2) was reported 0.3 rad away
+    at s = 0 by a position-only search."""
+    T0 = _pose(np.eye(3), [0.4, 0.0, 0.3])
+    line = rc.paths.Line(T0, _pose(rotx(0.6), [0.4, 0.0, 0.3]), speed=0.1, acceleration=0.5)
+    dpos, dang, s = line.distance(line.pose_at(line.length / 2))
+    assert dpos == 0.0 and dang < 1e-12 and s == pytest.approx(line.length / 2, abs=1e-12)
+    # a position alone still has no preferred point on a rotation on the spot
+    assert line.closest(T0[:3, 3]) == 0.0
+    with pytest.raises(InputError, match="point"):
+        line.closest(np.zeros(4))
+
+
+# ---------------------------------------------------------------------- corners
+def test_sharp_corners_are_listed_with_both_tangents():
+    """Waypoints with blend=0 list their inner waypoints as corners (where the tangent jumps),
+    twist_at gives the incoming tangent with side='before' and the outgoing one by default;
+    blends, straight continuations and other paths have none."""
+    poses, sharp = _corner_path(blend=0.0)
+    assert np.allclose(sharp.corners, sharp.knots[1:-1])
+    for i, s in enumerate(sharp.corners, start=1):
+        seg_in, seg_out = sharp.segments[i - 1], sharp.segments[i]
+        assert np.allclose(sharp.twist_at(s, side="before"), seg_in.twist_at(seg_in.length), atol=1e-14)
+        assert np.allclose(sharp.twist_at(s), seg_out.twist_at(0.0), atol=1e-14)
+        assert not np.allclose(sharp.twist_at(s, side="before"), sharp.twist_at(s))
+        x = s + 0.3 * seg_out.length  # away from corners both sides agree
+        assert np.array_equal(sharp.twist_at(x, side="before"), sharp.twist_at(x))
+    assert _corner_path(blend=0.02)[1].corners.size == 0
+    mid = rc.paths.Line(poses[0], poses[1], speed=0.1, acceleration=0.5)
+    straight = rc.paths.Waypoints([poses[0], mid.pose_at(0.4 * mid.length), poses[1]], blend=0.0,
+                                  speed=0.1, acceleration=0.5)
+    assert straight.corners.size == 0  # the same direction on both sides: no corner
+    assert rc.paths.Line(poses[0], poses[1], speed=0.1, acceleration=0.5).corners.size == 0
+    with pytest.raises(InputError, match="side"):
+        sharp.twist_at(0.01, side="left")
+
+
+@pytest.mark.parametrize("law", ["trapezoidal", "quintic", "jerk-limited"])
+def test_time_law_max_jerk_is_the_largest_jerk_of_the_law(law):
+    line = rc.paths.Line(_pose(np.eye(3), [0, 0, 0]), _pose(np.eye(3), [0.1, 0, 0]), speed=0.2,
+                         acceleration=1.0, jerk=5.0 if law == "jerk-limited" else None, law=law)
+    dt = 1e-4
+    t = np.arange(0.0, line.duration, dt)
+    sdd = np.array([line.progress(x)[2] for x in t])
+    jerk = np.abs(np.diff(sdd)) / dt
+    if law == "trapezoidal":
+        assert line.law.max_jerk == math.inf and jerk.max() > 1e3  # s̈ jumps
+    else:
+        assert jerk.max() == pytest.approx(line.law.max_jerk, rel=1e-2)

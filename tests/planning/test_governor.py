@@ -143,3 +143,98 @@ def test_options_are_checked():
         Governor(velocity_margin=1.5)
     with pytest.raises(TypeError):
         Governor(0.9)  # type: ignore[misc]
+
+
+# ---------------------------------------------------------------------- sharp corners
+def _sharp_tour(arm_name="ur5e", q0=(0.3, -1.3, 1.6, -1.9, -1.2, 0.2)):
+    """The new-user report's tour T0 → T1 → T0 with blend=0: a reversal at T1 (the tangent turns
+    by 180°, the rotation too), which the governor could not plan (|q̈|/amax = 6.6)."""
+    arm = rc.robots.BUILTIN[arm_name]()
+    q0 = np.array(q0)
+    T0 = arm.fk(q0)
+    T1 = T0.copy()
+    T1[:3, 3] += [0.15, -0.1, 0.05]
+    T1[:3, :3] = rc.spatial.rotz(0.4) @ T0[:3, :3]
+    T2 = T1.copy()
+    T2[:3, 3] += [0.0, 0.08, 0.0]  # and a right-angle corner
+    return arm, rc.paths.Waypoints([T0, T1, T2, T0], blend=0.0, speed=0.3, acceleration=1.5), q0
+
+
+def test_joint_path_records_each_corner_with_both_tangents():
+    arm, path, q0 = _sharp_tour()
+    jp = joint_path(arm, path, q0)
+    assert jp.complete
+    dup = np.flatnonzero(np.diff(jp.s) == 0.0)
+    assert np.allclose(jp.s[dup], path.corners)  # every corner, landed on exactly, twice
+    assert np.array_equal(jp.rest_points, np.sort(np.concatenate([dup, dup + 1])))
+    for k in dup:
+        assert np.array_equal(jp.q[k], jp.q[k + 1])
+        J = arm.jacobian(jp.q[k])
+        assert np.allclose(J @ jp.dq[k], path.twist_at(jp.s[k], side="before"), atol=1e-9)
+        assert np.allclose(J @ jp.dq[k + 1], path.twist_at(jp.s[k]), atol=1e-9)
+    # the derivatives are taken piece by piece: q″ stays of its size on the segments
+    assert np.max(np.abs(jp.ddq)) < 50.0
+
+
+def test_profile_comes_to_rest_at_each_corner():
+    arm, path, q0 = _sharp_tour()
+    jp = joint_path(arm, path, q0)
+    prof = reachability_profile(jp, arm.vmax, arm.amax, path.speed, path.acceleration)
+    assert np.all(prof.x[jp.rest_points] == 0.0) and np.all(np.isfinite(prof.t))
+    assert np.all(np.diff(prof.t) >= 0.0)
+    sd = np.sqrt(prof.x)
+    assert np.all(np.abs(jp.dq) * sd[:, None] <= arm.vmax * (1 + 1e-9))
+    qdd = jp.dq[:-1] * prof.u[:-1, None] + jp.ddq[:-1] * prof.x[:-1, None]
+    assert np.all(np.abs(qdd) <= arm.amax * (1 + 1e-6))
+
+
+@pytest.mark.parametrize("smoothing", [False, True])
+def test_sharp_corners_are_followed_stopping_at_each(smoothing):
+    """blend=0: the plan stops at every corner and follow completes on the path within every
+    limit — with the Ruckig smoother too (within jmax; the progress averaged piece by piece
+    between the corners, so it still comes to rest at each)."""
+    arm, path, q0 = _sharp_tour()
+    ctrl = rc.ResolvedRateController(arm, smoothing=smoothing)
+    run = rc.follow(arm, path, q0, dt=DT, controller=ctrl)
+    assert run.completed, run.message
+    assert run.max_position_error < 1e-5 if not smoothing else run.max_position_error < 5e-5
+    qd = np.diff(run.q, axis=0) / DT
+    assert np.all(np.abs(qd) <= arm.vmax * (1 + 1e-9))
+    assert np.all(np.abs(np.diff(qd, axis=0)) / DT <= arm.amax * (1 + 1e-9))
+    if smoothing:
+        assert _jerk_ratio(arm, run) <= 1.0
+    plan = run.info["plan"]
+    for c in path.corners:  # at rest at the corner: ṡ = 0 between two samples, within s̈·dt of it
+        k = int(np.argmin(np.abs(plan.s - c)))
+        assert abs(plan.s[k] - c) < 1e-6
+        assert np.max(np.abs(plan.sd[max(k - 1, 0):k + 2])) <= 1.5 * path.acceleration * DT
+
+
+# ---------------------------------------------------------------------- the path's own time law
+@pytest.mark.parametrize("kw", [{"jerk": 5.0}, {"law": "quintic"}, {}])
+def test_the_progress_respects_the_path_speed_acceleration_and_jerk(kw):
+    """The governor replaces the path's law by its own progress but never exceeds the path's
+    speed, acceleration and jerk: the path's ``jerk``, or for a quintic law the law's own
+    largest jerk (the report: 375 m/s³ against a jerk limit of 5). With limits that do not bind
+    the jerk-limited progress takes about as long as the path's jerk-limited law."""
+    arm = rc.robots.ur5e()
+    q0 = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
+    T0 = arm.fk(q0)
+    T1 = T0.copy()
+    T1[:3, 3] += [0.0, 0.1, 0.0]
+    line = rc.paths.Line(T0, T1, speed=0.2, acceleration=1.0, **kw)
+    gov = Governor()
+    plan = gov.plan(arm, line, q0, dt=1e-3)
+    limit = gov.progress_jerk_limit(line)
+    s = np.asarray(plan.s)
+    assert np.max(np.diff(s)) / 1e-3 <= line.speed * (1 + 1e-9)
+    assert np.max(np.abs(np.diff(s, 2))) / 1e-6 <= line.acceleration * (1 + 1e-6)
+    if not kw:
+        assert limit is None and plan.info["averaging_window"] == 0.0
+        return
+    assert limit == pytest.approx(line.law.max_jerk)
+    assert plan.info["progress_jerk"] <= limit * (1 + 1e-9) and plan.info["progress_jerk_limit"] == limit
+    if "jerk" in kw:
+        assert plan.duration == pytest.approx(line.duration, abs=0.02)
+    else:  # faster than the quintic, with no more jerk
+        assert plan.duration < line.duration

@@ -301,6 +301,16 @@ def polish_general(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     return np.minimum(np.maximum(xs, lo), hi)
 
 
+def _all_rows(lo: np.ndarray, hi: np.ndarray, G: np.ndarray, h: np.ndarray):
+    """Every constraint as a row a_iᵀx ≤ c_i: (A, c) = ([I; −I; G], [hi; −lo; h]), without
+    the rows whose c is infinite or beyond 1e14 (no constraint in floating point)."""
+    eye = _eye(lo.shape[0])
+    A = np.vstack([eye, -eye, G])
+    c = np.concatenate([hi, -lo, h])
+    fin = np.isfinite(c) & (np.abs(c) < 1e14)
+    return A[fin], c[fin]
+
+
 def qp_via_dual(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, G: np.ndarray, h: np.ndarray):
     """The exact minimiser of ½xᵀPx − bᵀx s.t. lo ≤ x ≤ hi, G x ≤ h (P positive definite)
     through its dual, a bound-constrained QP solved by `box_qp_exact`; or None.
@@ -310,12 +320,7 @@ def qp_via_dual(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, G:
     box (0 ≤ μ), positive semidefinite, which the primal active-set method solves exactly.
     The answer is the exact solution on x(μ)'s active set, returned only with its KKT
     certificate (`polish_general`)."""
-    n = b.shape[0]
-    eye = _eye(n)
-    A = np.vstack([eye, -eye, G])
-    c = np.concatenate([hi, -lo, h])
-    fin = np.isfinite(c) & (np.abs(c) < 1e14)
-    A, c = A[fin], c[fin]
+    A, c = _all_rows(lo, hi, G, h)
     try:
         L = np.linalg.cholesky(P)
     except np.linalg.LinAlgError:
@@ -358,11 +363,7 @@ def qp_primal_active_set(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.nd
     from scipy.optimize import linprog
 
     n = b.shape[0]
-    eye = _eye(n)
-    A = np.vstack([eye, -eye, G])
-    c = np.concatenate([hi, -lo, h])
-    fin = np.isfinite(c) & (np.abs(c) < 1e14)
-    A, c = A[fin], c[fin]
+    A, c = _all_rows(lo, hi, G, h)
     m = c.shape[0]
     if max_iter is None:
         max_iter = 20 * (n + m) + 50
@@ -385,7 +386,7 @@ def qp_primal_active_set(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.nd
             rank = int(np.sum(sv > 1e-12 * sv[0]))
             Z = Vt[rank:].T
         else:
-            Aw, Z = A[:0], eye
+            Aw, Z = A[:0], _eye(n)
         if Z.shape[1]:
             try:
                 y = np.linalg.lstsq(Z.T @ P @ Z, -(Z.T @ g), rcond=1e-14)[0]
