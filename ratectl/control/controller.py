@@ -54,6 +54,7 @@ from ..model.limits import (
 )
 from ..spatial import pose_error_into, rigid_transform_defect
 from .command import _RANK, STATUSES, Command, make_command
+from .goal import JointGoal
 from .smoothing import ProgressProfile, VelocityFilter
 
 if TYPE_CHECKING:
@@ -66,9 +67,7 @@ _APPROACH_ETA = 0.5  # fraction of amax (and jmax) the approach to a target plan
 _BRAKE_KAPPA = 0.8  # the share of that the approach brakes with (headroom for a goal still moving)
 _URGENT_ETA = 0.6  # the share of amax a late stop may use
 _OFF_ETA = 0.3  # the share that brings the motion off the approach line to rest (sum < 1)
-_GOAL_ITERATIONS = 10  # Gauss-Newton steps toward the joint goal of a new target
-_GOAL_JUMP = 1e-3  # a new target farther than this from the last goal [m and rad] is iterated
-_GOAL_STEP = 2.0  # the largest change of one joint in one of those steps [rad or m]
+_GOAL_STEPS = 10  # descent steps per cycle toward the joint goal until it is settled
 _BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
 _NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
 
@@ -205,9 +204,7 @@ class ResolvedRateController:
         self._progress: ProgressProfile | None = None
         self._off_filter: VelocityFilter | None = None
         self._zeros = np.zeros(n)
-        self._goal: np.ndarray | None = None
-        self._goal_target: np.ndarray | None = None
-        self._goal_error = np.zeros(6)
+        self._zeros6 = np.zeros(6)
         self._all_joints = np.ones(n, dtype=bool)
         self._target_ok = None  # the last target found rigid (checked again only when it changes)
         self.filter: VelocityFilter | None = None
@@ -233,6 +230,10 @@ class ResolvedRateController:
                                           stopping_distance(f.vmax, f.amax, f.amax, f.jmax))
         self.position_tolerance = float(position_tolerance)
         self.orientation_tolerance = float(orientation_tolerance)
+        lim_lo, lim_hi = ((self._plo, self._phi) if self.limits is not None
+                          else (np.full(n, -_BIG), np.full(n, _BIG)))
+        self._goal = JointGoal(chain, lim_lo, lim_hi, position_tolerance=self.position_tolerance,
+                               orientation_tolerance=self.orientation_tolerance)
         self.timeout = float(timeout)
         self.singular_sigma = float(singular_sigma)
         self._e = np.zeros(6)
@@ -256,7 +257,7 @@ class ResolvedRateController:
         self._q_last = None
         self._q_next_last = None
         self._latched = ""
-        self._goal = self._goal_target = None
+        self._goal.reset()
         self._dt_last = None
         self.time = 0.0
         if self.filter is not None:
@@ -488,18 +489,33 @@ class ResolvedRateController:
             qd_ref, qdd_ref = qd * r, None
         else:
             return None
-        cyc.approach = r
+        cyc.approach = max(r, 0.0)
         if r < 1.0 - 1e-9 and not within:
             # inside the tolerance the arm has arrived: its last braking is not a limit
             cyc.flags.append("acceleration-limited")
-            cyc.reasons.append(f"approach to the target slowed to {r:.3g}× its proportional speed "
-                               "to stop there within amax")
+            if r < 0.0:  # (smoothing: the filter still moves away from a goal that changed)
+                cyc.reasons.append("approach to the target: first braking the motion that leads "
+                                   "away from it, within amax and jmax")
+            else:
+                cyc.reasons.append(f"approach to the target slowed to {r:.3g}× its proportional "
+                                   "speed to stop there within amax")
         if getattr(self.solver, "enforces_limits", False):
-            cyc.xi = cyc.xi * r
-            halt = self._solve(cyc, q, dt, None)
+            if qdd_ref is None:  # the braking law: the same twist, scaled
+                cyc.xi = cyc.xi * r
+                halt = self._solve(cyc, q, dt, None)
+            else:
+                # the smoothed reference, kept as it is wherever the solver's limits (and
+                # extra rows) allow: it is the solver's feed-forward with nothing more to
+                # resolve, so the solver only corrects it where a bound would be violated
+                # (a scaled twist re-resolved would not be the reference the filter meets)
+                twist = cyc.J @ qd_ref
+                cyc.xi = self._zeros6
+                halt = self._solve(cyc, q, dt, qd_ref)
+                cyc.xi = twist
             cyc.qdd_ff, cyc.approach_qd = qdd_ref, cyc.qd
             return halt
-        cyc.xi = cyc.xi * r
+        # the twist of the command: the scaled one, or the tool twist of the smoothed reference
+        cyc.xi = cyc.xi * r if qdd_ref is None else cyc.J @ qd_ref
         cyc.qd = cyc.approach_qd = qd_ref
         cyc.qdd_ff = qdd_ref
         return None
@@ -510,8 +526,9 @@ class ResolvedRateController:
         overshoot — and from which the arm can always still come to rest at the target.
 
         The approach is planned in joint space, where the geometry is flat: toward the
-        joint goal g at which the tool reaches the target (`_joint_goal`: Gauss-Newton,
-        converged when the target is new, refined every cycle), along the straight line
+        joint goal g at which the tool reaches the target (`JointGoal`: error-decreasing
+        Levenberg–Marquardt steps from the measured q inside the joint range; for a target
+        out of reach a least-squares best, where the arm stops), along the straight line
         u = (g − q)/x, x = ‖g − q‖. On u the progress may move at ẋ ≤ minᵢ vmaxᵢ/|uᵢ|,
         accelerate at α = η·minᵢ amaxᵢ/|uᵢ| and jerk at ζ = η·minᵢ jmaxᵢ/|uᵢ|. The
         filter's state (v, a) splits into its part along u, (ṡ, s̈) = (v·u, a·u), and the
@@ -520,12 +537,14 @@ class ResolvedRateController:
 
         * one period of the time-optimal jerk-limited progress from (ṡ, s̈) to rest at x
           (`ProgressProfile`, Ruckig with one degree of freedom) under ẋ ≤ min(vcap, K x)
-          (the proportional law caps the speed: the gain sets how fast the target is
-          approached), acceleration α and braking κ·α (headroom for the goal still
-          moving), re-planned every cycle from the measured q; if the stop no longer fits
-          at κ·α it brakes with the urgent share;
+          (the proportional law caps the speed the progress may reach, not how hard it
+          brakes: the gain sets how fast the target is approached), acceleration α and
+          braking κ·α (headroom for the goal still moving), re-planned every cycle from
+          the measured q; if the stop no longer fits at κ·α it brakes with the urgent
+          share, without speeding up;
         * one period of the jerk-limited decay of (v⊥, a⊥) to rest, the joints
-          synchronised, within a share η⊥ of amax and jmax (a second `VelocityFilter`).
+          synchronised, within a share η⊥ of amax and jmax (a second `VelocityFilter`),
+          projected off u (so the progress along u is exactly the planned one).
 
         Each is a jerk-limited motion within its share of the limits, and the shares add
         up to less than 1, so the sum is reachable from the filter's state in one period
@@ -538,8 +557,7 @@ class ResolvedRateController:
         law unshaped) at the goal or if Ruckig finds no progress motion."""
         f = self.filter
         assert f is not None
-        unscale = cyc.scale if (cyc.res.velocity_policy == "scaled" and cyc.scale > 0.0) else 1.0
-        goal = self._joint_goal(q, qd * (self._inv_kmax / unscale), target)
+        goal = self._goal.update(q, target, steps=_GOAL_STEPS)
         w = goal - q
         x = float(np.sqrt(w @ w))
         if not x > 0.0:
@@ -555,13 +573,20 @@ class ResolvedRateController:
         s_v = float(v @ u)
         s_a = float(a @ u)
         brake = _BRAKE_KAPPA * alpha
+        # the proportional cap K·x limits how fast the progress may get, never how hard it
+        # brakes: a speed above it is held (the braking curve then brings it to rest at x),
+        # else Ruckig would brake at full α toward a cap that shrinks with x and reach the
+        # end of its stop with an acceleration it can no longer ramp out (a reversal)
+        cap = min(vcap, max(K * x, s_v))
         if s_v > 0.0 and stopping_distance(s_v, s_a, brake, zeta) > x * (1.0 + 1e-6):
-            # late (the plan rides its braking curve, so only a disturbance gets here): brake
-            # with the urgent share; never accelerate with it
+            # late (the plan rides its braking curve, so only a disturbance gets here, e.g.
+            # a loop that integrates q̇·dt instead of the filter's motion): brake with the
+            # urgent share, and never speed up with it
             brake = alpha * (_URGENT_ETA / _APPROACH_ETA)
+            cap = min(vcap, s_v)
         if self._progress is None:
             self._progress = ProgressProfile(dt)
-        nxt = self._progress.step(x, min(max(s_v, -vcap), vcap), s_a, vmax=max(min(vcap, K * x), 1e-12),
+        nxt = self._progress.step(x, min(max(s_v, -vcap), vcap), s_a, vmax=max(cap, 1e-12),
                                   amax=alpha, jmax=zeta, dt=dt, brake=brake)
         if nxt is None:
             return None
@@ -574,44 +599,12 @@ class ResolvedRateController:
             off.dt = dt
         off.reset(v - s_v * u, a - s_a * u)
         _, w_off, b_off = off.update(self._zeros, self._zeros)
+        # the synchronised decay is not parallel to its start, so it has a part along u; taken
+        # out, the progress along u is exactly the planned one (else the off-line decay after a
+        # halt or a change of target pushed the progress past its braking curve)
+        w_off -= float(w_off @ u) * u
+        b_off -= float(b_off @ u) * u
         return v1 / (K * x), v1 * u + w_off, a1 * u + b_off
-
-    def _joint_goal(self, q, w, target):
-        """The joint position at which the tool reaches ``target``: damped Gauss-Newton
-        steps g ← g + Jᵀ(J Jᵀ + λ²I)⁻¹ e(g) at the goal itself (λ = 1e-3; least squares for
-        an arm that cannot zero every component), kept inside the position range. A new
-        target starts from the last goal (or q + w, w the first-order joint travel J⁺e)
-        and, if it is farther than `_GOAL_JUMP` from it, takes up to `_GOAL_ITERATIONS`
-        steps, so the joint motion heads for the final goal from the start; a target that
-        stays or moves a little (a moving target) gets one step per cycle. No joint moves by
-        more than `_GOAL_STEP` [rad or m] in one step (a trust region)."""
-        g = self._goal
-        iterations = 1
-        if self._goal_target is None or not np.array_equal(target, self._goal_target):
-            if g is None:
-                g = q + w
-            self._goal_target = target.copy()
-            iterations = _GOAL_ITERATIONS
-        elif g is None:
-            g = q + w
-        e = self._goal_error
-        for _ in range(iterations):
-            T, J = self.chain.fk_jacobian(g)
-            pose_error_into(e, target, T)
-            ee = float(e @ e)
-            if not ee > 1e-18:  # converged (to 1e-9 m and rad)
-                break
-            JJt = J @ J.T
-            JJt[np.diag_indices(6)] += 1e-6
-            step = J.T @ np.linalg.solve(JJt, e)
-            big = float(np.max(np.abs(step)))
-            if big > _GOAL_STEP:  # a trust region: near a singularity the step may be huge
-                step *= _GOAL_STEP / big
-            g = np.minimum(np.maximum(g + step, self._plo), self._phi)
-            if ee < _GOAL_JUMP**2:  # a target that moved a little (a moving one): one step
-                break
-        self._goal = g
-        return g
 
     # --- stage 4: the limits
     def _limit(self, cyc: _Cycle, q, dt) -> None:
