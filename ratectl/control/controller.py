@@ -309,19 +309,48 @@ class ResolvedRateController:
         halt = self._solve(cyc, q, dt, qd_ff)
         if halt is not None:
             return halt
-        if target is not None and qd_ff is None and (twist is None or not twist.any()):
+        servo = target is not None and qd_ff is None and (twist is None or not twist.any())
+        if servo:
             halt = self._approach(cyc, q, dt, target)
             if halt is not None:
                 return halt
         self._limit(cyc, q, dt)
-        if (not cyc.flags and target is not None and qd_ff is None
-                and (twist is None or not twist.any()) and cyc.ep <= self.position_tolerance
-                and cyc.eo <= self.orientation_tolerance):
-            cyc.flags.append("target-reached")
         halt = self._smooth(cyc, q, dt, qdd_ff)
         if halt is not None:
             return halt
+        if servo:
+            self._arrival(cyc)
         return self._command(cyc, q, dt)
+
+    def _arrival(self, cyc: _Cycle) -> None:
+        """``target-reached`` or ``target-unreachable`` (first in the flags, so it is the
+        status). Reached: within the tolerances with the command at rest, its tool twist
+        J q̇ within K·tolerance (linear and angular; what the proportional law asks at the
+        tolerance). Unreachable: outside the tolerances with J q̇, and J (q̇ + q̈/K) one
+        time constant ahead, below 1 % of that: the arm has stopped short, no motion within
+        the limits lowers the error from here."""
+        K = self.gain
+        vtol = float(K[:3].max()) * self.position_tolerance
+        wtol = float(K[3:].max()) * self.orientation_tolerance
+        twist = cyc.J @ cyc.qd
+        if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol):
+            return
+        within = cyc.ep <= self.position_tolerance and cyc.eo <= self.orientation_tolerance
+        if within:
+            cyc.flags.insert(0, "target-reached")
+            return
+        # stopped short: below 1 % of that, now and one time constant ahead (an arm that
+        # creeps toward a singular target, damped, is still on its way)
+        vtol *= 0.01
+        wtol *= 0.01
+        ahead = cyc.J @ (cyc.qd + cyc.qdd * self._inv_kmax)
+        if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol
+                and math.hypot(*ahead[:3].tolist()) <= vtol and math.hypot(*ahead[3:].tolist()) <= wtol):
+            return
+        cyc.flags.insert(0, "target-unreachable")
+        cyc.reasons.insert(0, f"stopped at a best effort {cyc.ep * 1e3:.3g} mm / "
+                           f"{math.degrees(cyc.eo):.3g}° from the target: no motion within the limits "
+                           "lowers the pose error from here (the target is out of reach)")
 
     # --- stage 1: validation (shapes raise, values halt)
     def _validate(self, q: ArrayLike, target: ArrayLike | None, twist: ArrayLike | None, dt: float,
@@ -919,11 +948,15 @@ class ResolvedRateController:
         clipped = np.minimum(np.maximum(qd, lo_v), hi_v)
         changed = clipped != qd
         if changed.any():
-            joints = np.flatnonzero(changed).tolist()
-            if "joint-limit" not in flags:
-                flags.insert(0, "joint-limit")
-            reasons.insert(0, f"joint(s) {joints} braking for a position limit (jerk-limited stop)")
-            active.append("position")
+            # reported only where the clip changes the motion (not a 1e-13 rad/s remainder)
+            joints = np.flatnonzero(np.abs(clipped - qd) > 1e-9).tolist()
+            if joints:
+                if "joint-limit" not in flags:
+                    flags.insert(0, "joint-limit")
+                moving = np.abs(v[joints]).max() > 1e-9
+                reasons.insert(0, f"joint(s) {joints} " + ("braking for a position limit (jerk-limited "
+                                                           "stop)" if moving else "held at a position limit"))
+                active.append("position")
         else:
             clipped = qd  # unchanged: the same array (the approach's acceleration stays valid)
         return clipped, stop_up | stop_lo  # the braking joints stop time-optimally, on their own

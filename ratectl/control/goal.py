@@ -12,7 +12,8 @@ safe rather than clever:
   if it *decreases* ‖e‖ (else λ grows and the step shrinks toward the gradient), so the
   iterates' pose errors never increase and an unreachable target ends at a local
   least-squares best instead of diverging;
-* the goal stays **inside the joint range** by `_MARGIN` (joints at a bound whose step points
+* the goal stays **inside the joint range** by `_MARGIN` (1e-6: a target whose joint
+  position is on a limit stays reachable to 1e-6 rad; joints at a bound whose step points
   out are taken out of the step, so the others still move), and no joint moves by more than
   `_STEP_MAX` in one step (a trust region: near a singular target the step may be huge);
 * the result is **verified**: `JointGoal.reached` is true only when the tool pose at the goal
@@ -37,7 +38,7 @@ if TYPE_CHECKING:
 
 __all__ = ["JointGoal"]
 
-_MARGIN = 1e-3       # the goal stays this far inside a finite position limit [rad or m]
+_MARGIN = 1e-6       # the goal stays this far inside a finite position limit [rad or m]
 _JUMP = 1e-3         # a target farther than this from the last goal [m or rad] is new
 _STEP_MAX = 0.2      # the largest change of one joint in one step [rad or m] (trust region)
 _ERROR_STEP = 0.05   # the largest share of the pose error one step removes [m and rad]

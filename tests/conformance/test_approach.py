@@ -182,3 +182,120 @@ def test_joint_goal_descends_and_stays_inside_the_range():
     goal = JointGoal(chain, chain.lower, chain.upper, position_tolerance=1e-4, orientation_tolerance=1e-3)
     g = goal.update(q0, chain.fk(q1), steps=100)
     assert goal.reached and goal.settled and np.max(np.abs(g - q1)) < 1e-6
+
+
+def _ur5e_readme_step():
+    chain = rc.robots.ur5e()
+    q0 = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
+    T = chain.fk(q0)
+    T[:3, 3] += [0.2, 0.1, 0.0]
+    return chain, q0, T
+
+
+def _tool_speed(chain, q, qd):
+    twist = chain.jacobian(q) @ qd
+    return float(np.linalg.norm(twist[:3])), float(np.linalg.norm(twist[3:]))
+
+
+@pytest.mark.parametrize("smoothing", [False, True])
+def test_resume_after_a_stale_target_halt_without_overshoot(smoothing):
+    """20 cycles of stale stamps at 0.3 s (a halt that is not latched), then fresh targets.
+    Before, with smoothing: 15.5 mm overshoot (allowed 2.3 mm) and 'target-reached' while
+    the tool passed the target at 0.256 m/s."""
+    chain, q0, T = _ur5e_readme_step()
+    p0 = chain.fk(q0)[:3, 3]
+    L = float(np.linalg.norm(T[:3, 3] - p0))
+    u = (T[:3, 3] - p0) / L
+    ctrl = rc.ResolvedRateController(chain, smoothing=smoothing)
+    q = q0.copy()
+    beyond = -math.inf
+    statuses = []
+    for k in range(2500):
+        stamp = ctrl.time - 0.5 if 300 <= k < 320 else None
+        cmd = ctrl.step(q, target=T, dt=1e-3, stamp=stamp)
+        statuses.append(cmd.status)
+        if cmd.status == "target-reached":
+            v, w = _tool_speed(chain, q, cmd.qd)
+            assert v <= 10.0 * 1e-4 + 1e-12 and w <= 10.0 * 1e-3 + 1e-12, (k, v, w)
+        q = q + cmd.qd * 1e-3
+        beyond = max(beyond, float((chain.fk(q)[:3, 3] - p0) @ u) - L)
+    assert statuses[300:320] == ["halted"] * 20
+    assert beyond <= 0.01 * L + 1e-4
+    assert cmd.status == "target-reached" and cmd.position_error <= 1e-4
+
+
+def test_target_reached_only_at_rest_and_the_documented_loop_ends():
+    """At a singular target (UR5e wrist, q5 = 0) the error reached 1e-14 m but the status
+    stayed 'damped' forever; the user's `if cmd.status == "target-reached": break` must end,
+    and only with the arm at rest."""
+    chain = rc.robots.ur5e()
+    q = np.array([0.3, -1.3, 1.6, -1.9, 0.3, 0.2])
+    T = chain.fk(np.array([0.3, -1.3, 1.6, -1.9, 0.0, 0.2]))
+    ctrl = rc.ResolvedRateController(chain)
+    for _ in range(3000):
+        cmd = ctrl.step(q, target=T, dt=1e-3)
+        if cmd.status == "target-reached":
+            break
+        q = cmd.q_next
+    assert cmd.status == "target-reached" and "target-reached" in cmd.flags
+    assert cmd.position_error <= 1e-4 and cmd.orientation_error <= 1e-3
+    v, w = _tool_speed(chain, q, cmd.qd)
+    assert v <= 1e-3 and w <= 1e-2
+
+
+@pytest.mark.parametrize("smoothing", [False, True])
+def test_a_target_with_a_joint_on_its_limit_is_reached(smoothing):
+    """The target's IK has a joint exactly on its limit (before: 'joint-limit' at the target
+    and no 'target-reached', or a goal on another branch)."""
+    chain = rc.robots.puma560()
+    q1 = np.clip((chain.lower + chain.upper) / 2, -1, 1) + 0.1
+    q1[0] = chain.upper[0]
+    q0 = q1.copy()
+    q0[0] -= 0.3
+    ctrl = rc.ResolvedRateController(chain, smoothing=smoothing)
+    q = q0.copy()
+    for _ in range(3000):
+        cmd = ctrl.step(q, target=chain.fk(q1), dt=1e-3)
+        if cmd.status in ("target-reached", "target-unreachable"):
+            break
+        q = cmd.q_next
+    assert cmd.status == "target-reached", cmd
+    assert np.all(q <= chain.upper)
+
+
+@pytest.mark.parametrize("smoothing", [False, True])
+def test_an_unreachable_target_ends_in_target_unreachable_at_rest(smoothing):
+    """rpr, 364 mm from a target it cannot reach, at rest: before, status 'regular' with an
+    empty reason."""
+    chain = rc.robots.rpr()
+    q = np.array([0.2, 0.4, 0.3])
+    T = chain.fk(q)
+    T[:3, 3] += [0.4, 0.2, 0.0]
+    ctrl = rc.ResolvedRateController(chain, smoothing=smoothing)
+    seen = []
+    for _ in range(1500):
+        cmd = ctrl.step(q, target=T, dt=2e-3)
+        seen.append(cmd.status)
+        q = q + cmd.qd * 2e-3
+    assert cmd.status == "target-unreachable" and "best effort" in cmd.reason, cmd
+    assert np.abs(cmd.qd).max() < 1e-6
+    # not while it was still on its way
+    first = seen.index("target-unreachable")
+    assert all(s == "target-unreachable" for s in seen[first:])
+    assert first > 50
+
+
+def test_a_position_limit_hold_at_rest_is_not_reported_as_braking():
+    """'braking for a position limit (jerk-limited stop)' was repeated for seconds while
+    |q̇| was 1e-13: a joint at rest is held, not braking."""
+    chain = rc.robots.panda()
+    case = harness.make_cases("builtin:panda", chain, 1, seed=7, steps=(0.2, 0.5),
+                              max_turn=math.radians(90))[0]
+    ctrl = rc.ResolvedRateController(chain, smoothing=True)
+    q = case.q0.copy()
+    for k in range(3000):
+        cmd = ctrl.step(q, target=case.target, dt=2e-3)
+        q = q + cmd.qd * 2e-3
+        if k > 2000:
+            assert "braking" not in cmd.reason or np.abs(cmd.qd).max() > 1e-9, cmd
+    assert cmd.status == "target-reached"
