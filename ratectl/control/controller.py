@@ -508,25 +508,30 @@ class ResolvedRateController:
             if plan is None:
                 return None
             r, qd_ref, qdd_ref = plan
+            r_brake = r
         elif self._has_a:
             w = speed * self._inv_kmax
             adt = self._amax_f * (_APPROACH_ETA * dt)
             b = braking_speed_discrete(w, adt, 1.0 / (adt * dt), 1.0 / dt)
-            r = float(np.min(b[moving] / speed[moving]))
-            if r >= 1.0:
-                return None
-            qd_ref, qdd_ref = qd * r, None
+            r = r_brake = float(np.min(b[moving] / speed[moving]))
+            qd_ref, qdd_ref = None, None
+            if not getattr(self.solver, "enforces_limits", False):
+                r, qd_ref = self._within_amax(cyc, qd, speed, moving, min(r, 1.0), dt)
+            if qd_ref is None:
+                if r >= 1.0:
+                    return None
+                qd_ref = qd * r
         else:
             return None
         cyc.approach = max(r, 0.0)
-        if r < 1.0 - 1e-9 and not within:
+        if min(r, r_brake) < 1.0 - 1e-9 and not within:
             # inside the tolerance the arm has arrived: its last braking is not a limit
             cyc.flags.append("acceleration-limited")
             if r < 0.0:  # (smoothing: the filter still moves away from a goal that changed)
                 cyc.reasons.append("approach to the target: first braking the motion that leads "
                                    "away from it, within amax and jmax")
-            else:
-                cyc.reasons.append(f"approach to the target slowed to {r:.3g}× its proportional "
+            elif r_brake < 1.0 - 1e-9:
+                cyc.reasons.append(f"approach to the target slowed to {r_brake:.3g}× its proportional "
                                    "speed to stop there within amax")
         if getattr(self.solver, "enforces_limits", False):
             if qdd_ref is None:  # the braking law: the same twist, scaled
@@ -548,6 +553,50 @@ class ResolvedRateController:
         cyc.qd = cyc.approach_qd = qd_ref
         cyc.qdd_ff = qdd_ref
         return None
+
+    def _within_amax(self, cyc: _Cycle, qd, speed, moving, r, dt):
+        """The approach's q̇ within amax of the previous one, as close to the straight tool
+        approach as amax allows: returns (r, q̇) or (r, None) to leave it to the limits.
+
+        The factor on the solver's q̇ nearest to the braking law's ``r`` (and within vmax)
+        such that |r q̇_i − q̇_prev,i| ≤ amax_i dt for every joint keeps the tool on its line
+        (a scale of q̇, not of its change). When none exists (J turns q̇ faster than amax
+        allows at this speed, e.g. near σ_min ≈ 0.08 on a 439 mm Panda step), every joint
+        changes toward r* q̇ as fast as its own amax allows, r* ≤ r the factor that needs
+        the least of the limits: the uniform scaling of the change made every joint as slow
+        as the slowest (×0.015), the arm kept its old joint direction, the tool left its
+        line by 32 mm and the braking law, which assumes the line, overshot by 43 mm."""
+        r_v = float(np.min(self._vf[moving] / speed[moving])) if self._has_v else math.inf
+        want = min(r, r_v)
+        prev = self._qd
+        adt = self._amax_f * dt * (1.0 - 1e-12)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            a = (prev - adt) / qd
+            b = (prev + adt) / qd
+        lo = float(np.max(np.where(moving, np.minimum(a, b), -math.inf)))
+        hi = float(np.min(np.where(moving, np.maximum(a, b), math.inf)))
+        still = ~moving
+        fits_still = not (still.any() and np.any(np.abs(prev[still]) > adt[still]))
+        if fits_still and max(lo, 0.0) <= min(want, hi):  # never faster than `want` to stay on it
+            if hi >= want:
+                return r, None  # the limits leave it on the line (velocity scaling applies)
+            r_line = hi  # speeding up along the line, within amax
+            cyc.flags.append("acceleration-limited")
+            cyc.reasons.append(f"approach speed {r_line:.3g}× its proportional speed, changed within "
+                               "amax along the straight line to the target")
+            cyc.active.append("acceleration")
+            return r_line, qd * r_line
+        # no factor fits: the least demanding one up to `want`, each joint toward it within amax
+        inv = 1.0 / adt
+        grid = np.linspace(0.0, want, 33)
+        need = np.max(np.abs(np.outer(grid, qd) - prev) * inv, axis=1)
+        r_best = float(grid[int(np.argmin(need))])
+        qd_new = prev + np.minimum(np.maximum(qd * r_best - prev, -adt), adt)
+        cyc.flags.append("acceleration-limited")
+        cyc.reasons.append(f"approach turned faster than amax allows: each joint changes toward "
+                           f"{r_best:.3g}× the proportional speed within its own amax")
+        cyc.active.append("acceleration")
+        return r_best, qd_new
 
     def _approach_smoothed(self, cyc: _Cycle, q, qd, dt, target):
         """The approach law for the jerk-limited filter: a reference (q̇, q̈) that the filter

@@ -299,3 +299,46 @@ def test_a_position_limit_hold_at_rest_is_not_reported_as_braking():
         if k > 2000:
             assert "braking" not in cmd.reason or np.abs(cmd.qd).max() > 1e-9, cmd
     assert cmd.status == "target-reached"
+
+
+# (arm, seed, case index): large steps without smoothing
+LARGE_PLAIN = [
+    ("builtin:panda", 7, 4),   # overshot by 43 mm: the tool left its line by 32 mm
+    ("builtin:panda", 7, 0),
+    ("builtin:iiwa7", 8, 3),
+]
+
+
+@pytest.mark.parametrize(("arm", "seed", "index"), LARGE_PLAIN,
+                         ids=[f"{a}-seed{s}-{i}" for a, s, i in LARGE_PLAIN])
+@pytest.mark.parametrize("dt", [1e-3, 4e-3])
+def test_large_steps_without_smoothing_within_the_overshoot_limit(arm, seed, index, dt):
+    chain = harness.all_arms()[arm]()
+    case = harness.make_cases(arm, chain, index + 1, seed=seed, steps=(0.2, 0.5),
+                              max_turn=math.radians(90))[index]
+    out = harness.run_case(chain, case, smoothing=False, dt=dt, loop="euler")
+    assert out.ok(case.step), out
+
+
+def test_the_approach_keeps_the_tool_on_its_line_within_amax():
+    """Panda, 439 mm step: the change of q̇ was scaled uniformly (×0.015), the joints kept
+    their old direction and the tool left its straight line by 32 mm."""
+    chain = rc.robots.panda()
+    case = harness.make_cases("builtin:panda", chain, 5, seed=7, steps=(0.2, 0.5),
+                              max_turn=math.radians(90))[4]
+    ctrl = rc.ResolvedRateController(chain)
+    q = case.q0.copy()
+    p0 = chain.fk(q)[:3, 3]
+    u = case.target[:3, 3] - p0
+    u /= np.linalg.norm(u)
+    worst = 0.0
+    inv_a = 1.0 / chain.amax
+    qd_prev = np.zeros(chain.dof)
+    for _ in range(1000):
+        cmd = ctrl.step(q, target=case.target, dt=2e-3)
+        assert np.max(np.abs(cmd.qd - qd_prev) * inv_a) / 2e-3 <= 1.0 + 1e-9
+        qd_prev = cmd.qd
+        q = q + cmd.qd * 2e-3
+        d = chain.fk(q)[:3, 3] - p0
+        worst = max(worst, float(np.linalg.norm(d - (d @ u) * u)))
+    assert worst < 0.015, f"the tool left its line by {worst * 1e3:.1f} mm"
