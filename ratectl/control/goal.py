@@ -12,10 +12,13 @@ safe rather than clever:
   if it *decreases* ‖e‖ (else λ grows and the step shrinks toward the gradient), so the
   iterates' pose errors never increase and an unreachable target ends at a local
   least-squares best instead of diverging;
-* the goal stays **inside the joint range** by `_MARGIN` (1e-6: a target whose joint
-  position is on a limit stays reachable to 1e-6 rad; joints at a bound whose step points
-  out are taken out of the step, so the others still move), and no joint moves by more than
-  `_STEP_MAX` in one step (a trust region: near a singular target the step may be huge);
+* the goal stays **inside the joint range**: first with room to spare (`_COMFORT`, 0.05
+  rad or a tenth of the range: a redundant arm's goal does not end on a limit that the
+  jerk-limited stop then brushes), and only if the target is not reached that way up to
+  `_MARGIN` (1e-6: a target whose joint position is on a limit stays reachable); joints
+  at a bound whose step points out are taken out of the step, so the others still move;
+  and no joint moves by more than `_STEP_MAX` in one step (a trust region: near a singular
+  target the step may be huge);
 * the result is **verified**: `JointGoal.reached` is true only when the tool pose at the goal
   is within a tenth of the controller's tolerances; otherwise the goal is the best effort
   (`JointGoal.best_effort` once the descent has stalled).
@@ -39,6 +42,7 @@ if TYPE_CHECKING:
 __all__ = ["JointGoal"]
 
 _MARGIN = 1e-6       # the goal stays this far inside a finite position limit [rad or m]
+_COMFORT = 0.05      # ... and this far (at most a tenth of the range) unless the target needs it
 _JUMP = 1e-3         # a target farther than this from the last goal [m or rad] is new
 _STEP_MAX = 0.2      # the largest change of one joint in one step [rad or m] (trust region)
 _ERROR_STEP = 0.05   # the largest share of the pose error one step removes [m and rad]
@@ -65,9 +69,12 @@ class JointGoal:
         self.chain = chain
         lower = np.asarray(lower, dtype=float)
         upper = np.asarray(upper, dtype=float)
-        margin = np.minimum(_MARGIN, 0.25 * np.maximum(upper - lower, 0.0))
-        self._lo = lower + margin
-        self._hi = upper - margin
+        span = np.maximum(upper - lower, 0.0)
+        margin = np.minimum(_MARGIN, 0.25 * span)
+        comfort = np.minimum(_COMFORT, 0.1 * span)
+        self._hard = (lower + margin, upper - margin)
+        self._comfort = (lower + comfort, upper - comfort)
+        self._lo, self._hi = self._comfort
         self._tol_p = 0.1 * float(position_tolerance)
         self._tol_o = 0.1 * float(orientation_tolerance)
         self._e = np.zeros(6)
@@ -116,6 +123,7 @@ class JointGoal:
             jump = ep > _JUMP or eo > _JUMP
         self.target = target.copy()
         if jump:
+            self._lo, self._hi = self._comfort
             g = np.minimum(np.maximum(q, self._lo), self._hi)
             self._T, self._J = self.chain.fk_jacobian(g)
             self.q = g
@@ -133,8 +141,7 @@ class JointGoal:
         assert g is not None and J is not None and target is not None
         for _ in range(steps):
             if self._ee <= _CONVERGED or self._lambda2 > _LAMBDA2_STALL or self._steps >= _MAX_STEPS:
-                self.settled = True
-                return
+                break
             self._steps += 1
             step = self._step(g, J, e)
             g_try = np.minimum(np.maximum(g + step, self._lo), self._hi)
@@ -152,11 +159,17 @@ class JointGoal:
                 self._lambda2 = max(self._lambda2 * 0.1, _LAMBDA2_MIN)
                 if stalled:
                     self.settled = True
-                    return
+                    break
             else:
                 self._lambda2 *= 10.0
         if self._ee <= _CONVERGED or self._lambda2 > _LAMBDA2_STALL or self._steps >= _MAX_STEPS:
             self.settled = True
+        if self.settled and not self.reached and self._lo is self._comfort[0]:
+            # not reached with room to spare from the limits: go on up to them
+            self._lo, self._hi = self._hard
+            self._lambda2 = _LAMBDA2_START
+            self._steps = 0
+            self.settled = False
 
     def _step(self, g: np.ndarray, J: np.ndarray, e: np.ndarray) -> np.ndarray:
         """The damped step Jᵀ(J Jᵀ + λ²I)⁻¹ e without the joints held at a bound it would

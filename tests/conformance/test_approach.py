@@ -169,7 +169,7 @@ def test_joint_goal_descends_and_stays_inside_the_range():
     T[:3, 3] += [0.4, 0.2, 0.0]
     goal = JointGoal(chain, chain.lower, chain.upper, position_tolerance=1e-4, orientation_tolerance=1e-3)
     errors = []
-    for _ in range(40):
+    for _ in range(100):
         g = goal.update(q0, T, steps=5)
         errors.append(math.hypot(goal.position_error, goal.orientation_error))
         assert np.all(g >= chain.lower) and np.all(g <= chain.upper)
