@@ -516,7 +516,7 @@ class ResolvedRateController:
             r = r_brake = float(np.min(b[moving] / speed[moving]))
             qd_ref, qdd_ref = None, None
             if not getattr(self.solver, "enforces_limits", False):
-                r, qd_ref = self._within_amax(cyc, qd, speed, moving, min(r, 1.0), dt)
+                r, qd_ref = self._within_amax(cyc, qd, min(r, 1.0), dt)
             if qd_ref is None:
                 if r >= 1.0:
                     return None
@@ -554,7 +554,7 @@ class ResolvedRateController:
         cyc.qdd_ff = qdd_ref
         return None
 
-    def _within_amax(self, cyc: _Cycle, qd, speed, moving, r, dt):
+    def _within_amax(self, cyc: _Cycle, qd, r, dt):
         """The approach's q̇ within amax of the previous one, as close to the straight tool
         approach as amax allows: returns (r, q̇) or (r, None) to leave it to the limits.
 
@@ -566,18 +566,25 @@ class ResolvedRateController:
         the least of the limits: the uniform scaling of the change made every joint as slow
         as the slowest (×0.015), the arm kept its old joint direction, the tool left its
         line by 32 mm and the braking law, which assumes the line, overshot by 43 mm."""
-        r_v = float(np.min(self._vf[moving] / speed[moving])) if self._has_v else math.inf
+        # on the few numbers of one cycle, plain Python is several times cheaper than numpy
+        c = dt * (1.0 - 1e-12)
+        lo = -math.inf
+        r_v = hi = math.inf
+        fits = True
+        for v, p, a, vm in zip(qd.tolist(), self._qd.tolist(), self._amax_f.tolist(), self._vf.tolist(),
+                               strict=True):
+            room = a * c
+            if v == 0.0:
+                fits = fits and abs(p) <= room  # a joint the line does not move must stop in time
+                continue
+            r_v = min(r_v, vm / abs(v))
+            x, y = (p - room) / v, (p + room) / v
+            if x > y:
+                x, y = y, x
+            lo = max(lo, x)
+            hi = min(hi, y)
         want = min(r, r_v)
-        prev = self._qd
-        adt = self._amax_f * dt * (1.0 - 1e-12)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            a = (prev - adt) / qd
-            b = (prev + adt) / qd
-        lo = float(np.max(np.where(moving, np.minimum(a, b), -math.inf)))
-        hi = float(np.min(np.where(moving, np.maximum(a, b), math.inf)))
-        still = ~moving
-        fits_still = not (still.any() and np.any(np.abs(prev[still]) > adt[still]))
-        if fits_still and max(lo, 0.0) <= min(want, hi):  # never faster than `want` to stay on it
+        if fits and max(lo, 0.0) <= min(want, hi):  # never faster than `want` to stay on it
             if hi >= want:
                 return r, None  # the limits leave it on the line (velocity scaling applies)
             r_line = hi  # speeding up along the line, within amax
@@ -587,6 +594,8 @@ class ResolvedRateController:
             cyc.active.append("acceleration")
             return r_line, qd * r_line
         # no factor fits: the least demanding one up to `want`, each joint toward it within amax
+        prev = self._qd
+        adt = self._amax_f * c
         inv = 1.0 / adt
         grid = np.linspace(0.0, want, 33)
         need = np.max(np.abs(np.outer(grid, qd) - prev) * inv, axis=1)
