@@ -25,12 +25,15 @@ STATUSES = (
     "halted",                # safe halt: decelerating to zero (reason in Command.reason)
     "limit-recovery",        # a joint measured inside its stopping distance or beyond a position
                              # limit: braking harder than amax, or moving back into the range
+    "target-reached",        # servoing to a target (no feed-forward): within the tolerances and
+                             # at rest (the command's tool speed within K·tolerance)
+    "target-unreachable",    # servoing to a target: at rest outside the tolerances, a best
+                             # effort (no motion within the limits lowers the error from here)
     "singular",              # the solver failed or needed more than vmax near a singularity
     "joint-limit",           # a joint position limit clipped q̇
     "velocity-scaled",       # q̇ was scaled down uniformly to respect vmax
     "damped",                # the solver damped (near a singularity; see Command.kind)
     "acceleration-limited",  # the change of q̇ was scaled to respect amax
-    "target-reached",        # a target alone was given and the pose error is within tolerance
     "regular",               # exact tracking, nothing limited
 )
 

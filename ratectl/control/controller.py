@@ -59,6 +59,7 @@ from ..model.limits import (
 )
 from ..spatial import pose_error_into, rigid_transform_defect
 from .command import _RANK, STATUSES, Command, make_command
+from .goal import JointGoal
 from .smoothing import ProgressProfile, VelocityFilter
 
 if TYPE_CHECKING:
@@ -71,9 +72,7 @@ _APPROACH_ETA = 0.5  # fraction of amax (and jmax) the approach to a target plan
 _BRAKE_KAPPA = 0.8  # the share of that the approach brakes with (headroom for a goal still moving)
 _URGENT_ETA = 0.6  # the share of amax a late stop may use
 _OFF_ETA = 0.3  # the share that brings the motion off the approach line to rest (sum < 1)
-_GOAL_ITERATIONS = 10  # Gauss-Newton steps toward the joint goal of a new target
-_GOAL_JUMP = 1e-3  # a new target farther than this from the last goal [m and rad] is iterated
-_GOAL_STEP = 2.0  # the largest change of one joint in one of those steps [rad or m]
+_GOAL_STEPS = 10  # descent steps per cycle toward the joint goal until it is settled
 _BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
 _NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
 
@@ -230,9 +229,7 @@ class ResolvedRateController:
         self._progress: ProgressProfile | None = None
         self._off_filter: VelocityFilter | None = None
         self._zeros = np.zeros(n)
-        self._goal: np.ndarray | None = None
-        self._goal_target: np.ndarray | None = None
-        self._goal_error = np.zeros(6)
+        self._zeros6 = np.zeros(6)
         self._all_joints = np.ones(n, dtype=bool)
         self._target_ok = None  # the last target found rigid (checked again only when it changes)
         self.filter: VelocityFilter | None = None
@@ -259,6 +256,10 @@ class ResolvedRateController:
         self.position_tolerance = positive_number("position_tolerance", position_tolerance, unit="[m]")
         self.orientation_tolerance = positive_number("orientation_tolerance", orientation_tolerance,
                                                      unit="[rad]")
+        lim_lo, lim_hi = ((self._plo, self._phi) if self.limits is not None
+                          else (np.full(n, -_BIG), np.full(n, _BIG)))
+        self._goal = JointGoal(chain, lim_lo, lim_hi, position_tolerance=self.position_tolerance,
+                               orientation_tolerance=self.orientation_tolerance)
         self.timeout = positive_number("timeout", timeout, allow_inf=True, unit="[s]")
         self.singular_sigma = positive_number("singular_sigma", singular_sigma, allow_zero=True)
         self._e = np.zeros(6)
@@ -290,7 +291,7 @@ class ResolvedRateController:
         self._q_last = None
         self._q_next_last = None
         self._latched = ""
-        self._goal = self._goal_target = None
+        self._goal.reset()
         self._dt_last = None
         self.time = 0.0
         if self.filter is not None:
@@ -342,19 +343,48 @@ class ResolvedRateController:
         halt = self._solve(cyc, q, dt, qd_ff)
         if halt is not None:
             return halt
-        if target is not None and qd_ff is None and (twist is None or not twist.any()):
+        servo = target is not None and qd_ff is None and (twist is None or not twist.any())
+        if servo:
             halt = self._approach(cyc, q, dt, target)
             if halt is not None:
                 return halt
         self._limit(cyc, q, dt)
-        if (not cyc.flags and target is not None and qd_ff is None
-                and (twist is None or not twist.any()) and cyc.ep <= self.position_tolerance
-                and cyc.eo <= self.orientation_tolerance):
-            cyc.flags.append("target-reached")
         halt = self._smooth(cyc, q, dt, qdd_ff)
         if halt is not None:
             return halt
+        if servo:
+            self._arrival(cyc)
         return self._command(cyc, q, dt)
+
+    def _arrival(self, cyc: _Cycle) -> None:
+        """``target-reached`` or ``target-unreachable`` (first in the flags, so it is the
+        status). Reached: within the tolerances with the command at rest, its tool twist
+        J q̇ within K·tolerance (linear and angular; what the proportional law asks at the
+        tolerance). Unreachable: outside the tolerances with J q̇, and J (q̇ + q̈/K) one
+        time constant ahead, below 1 % of that: the arm has stopped short, no motion within
+        the limits lowers the error from here."""
+        K = self.gain
+        vtol = float(K[:3].max()) * self.position_tolerance
+        wtol = float(K[3:].max()) * self.orientation_tolerance
+        twist = cyc.J @ cyc.qd
+        if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol):
+            return
+        within = cyc.ep <= self.position_tolerance and cyc.eo <= self.orientation_tolerance
+        if within:
+            cyc.flags.insert(0, "target-reached")
+            return
+        # stopped short: below 1 % of that, now and one time constant ahead (an arm that
+        # creeps toward a singular target, damped, is still on its way)
+        vtol *= 0.01
+        wtol *= 0.01
+        ahead = cyc.J @ (cyc.qd + cyc.qdd * self._inv_kmax)
+        if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol
+                and math.hypot(*ahead[:3].tolist()) <= vtol and math.hypot(*ahead[3:].tolist()) <= wtol):
+            return
+        cyc.flags.insert(0, "target-unreachable")
+        cyc.reasons.insert(0, f"stopped at a best effort {cyc.ep * 1e3:.3g} mm / "
+                           f"{math.degrees(cyc.eo):.3g}° from the target: no motion within the limits "
+                           "lowers the pose error from here (the target is out of reach)")
 
     # --- stage 1: validation (shapes raise, values halt)
     def _validate(self, q: ArrayLike, target: ArrayLike | None, twist: ArrayLike | None, dt: float,
@@ -536,31 +566,104 @@ class ResolvedRateController:
             if plan is None:
                 return None
             r, qd_ref, qdd_ref = plan
+            r_brake = r
         elif self._has_a:
             w = speed * self._inv_kmax
             adt = self._amax_f * (_APPROACH_ETA * dt)
             b = braking_speed_discrete(w, adt, 1.0 / (adt * dt), 1.0 / dt)
-            r = float(np.min(b[moving] / speed[moving]))
-            if r >= 1.0:
-                return None
-            qd_ref, qdd_ref = qd * r, None
+            r = r_brake = float(np.min(b[moving] / speed[moving]))
+            qd_ref, qdd_ref = None, None
+            if not getattr(self.solver, "enforces_limits", False):
+                r, qd_ref = self._within_amax(cyc, qd, min(r, 1.0), dt)
+            if qd_ref is None:
+                if r >= 1.0:
+                    return None
+                qd_ref = qd * r
         else:
             return None
-        cyc.approach = r
-        if r < 1.0 - 1e-9 and not within:
+        cyc.approach = max(r, 0.0)
+        if min(r, r_brake) < 1.0 - 1e-9 and not within:
             # inside the tolerance the arm has arrived: its last braking is not a limit
             cyc.flags.append("acceleration-limited")
-            cyc.reasons.append(f"approach to the target slowed to {r:.3g}× its proportional speed "
-                               "to stop there within amax")
+            if r < 0.0:  # (smoothing: the filter still moves away from a goal that changed)
+                cyc.reasons.append("approach to the target: first braking the motion that leads "
+                                   "away from it, within amax and jmax")
+            elif r_brake < 1.0 - 1e-9:
+                cyc.reasons.append(f"approach to the target slowed to {r_brake:.3g}× its proportional "
+                                   "speed to stop there within amax")
         if getattr(self.solver, "enforces_limits", False):
-            cyc.xi = cyc.xi * r
-            halt = self._solve(cyc, q, dt, None)
+            if qdd_ref is None:  # the braking law: the same twist, scaled
+                cyc.xi = cyc.xi * r
+                halt = self._solve(cyc, q, dt, None)
+            else:
+                # the smoothed reference, kept as it is wherever the solver's limits (and
+                # extra rows) allow: it is the solver's feed-forward with nothing more to
+                # resolve, so the solver only corrects it where a bound would be violated
+                # (a scaled twist re-resolved would not be the reference the filter meets)
+                twist = cyc.J @ qd_ref
+                cyc.xi = self._zeros6
+                halt = self._solve(cyc, q, dt, qd_ref)
+                cyc.xi = twist
             cyc.qdd_ff, cyc.approach_qd = qdd_ref, cyc.qd
             return halt
-        cyc.xi = cyc.xi * r
+        # the twist of the command: the scaled one, or the tool twist of the smoothed reference
+        cyc.xi = cyc.xi * r if qdd_ref is None else cyc.J @ qd_ref
         cyc.qd = cyc.approach_qd = qd_ref
         cyc.qdd_ff = qdd_ref
         return None
+
+    def _within_amax(self, cyc: _Cycle, qd, r, dt):
+        """The approach's q̇ within amax of the previous one, as close to the straight tool
+        approach as amax allows: returns (r, q̇) or (r, None) to leave it to the limits.
+
+        The factor on the solver's q̇ nearest to the braking law's ``r`` (and within vmax)
+        such that |r q̇_i − q̇_prev,i| ≤ amax_i dt for every joint keeps the tool on its line
+        (a scale of q̇, not of its change). When none exists (J turns q̇ faster than amax
+        allows at this speed, e.g. near σ_min ≈ 0.08 on a 439 mm Panda step), every joint
+        changes toward r* q̇ as fast as its own amax allows, r* ≤ r the factor that needs
+        the least of the limits: the uniform scaling of the change made every joint as slow
+        as the slowest (×0.015), the arm kept its old joint direction, the tool left its
+        line by 32 mm and the braking law, which assumes the line, overshot by 43 mm."""
+        # on the few numbers of one cycle, plain Python is several times cheaper than numpy
+        c = dt * (1.0 - 1e-12)
+        lo = -math.inf
+        r_v = hi = math.inf
+        fits = True
+        for v, p, a, vm in zip(qd.tolist(), self._qd.tolist(), self._amax_f.tolist(), self._vf.tolist(),
+                               strict=True):
+            room = a * c
+            if v == 0.0:
+                fits = fits and abs(p) <= room  # a joint the line does not move must stop in time
+                continue
+            r_v = min(r_v, vm / abs(v))
+            x, y = (p - room) / v, (p + room) / v
+            if x > y:
+                x, y = y, x
+            lo = max(lo, x)
+            hi = min(hi, y)
+        want = min(r, r_v)
+        if fits and max(lo, 0.0) <= min(want, hi):  # never faster than `want` to stay on it
+            if hi >= want:
+                return r, None  # the limits leave it on the line (velocity scaling applies)
+            r_line = hi  # speeding up along the line, within amax
+            cyc.flags.append("acceleration-limited")
+            cyc.reasons.append(f"approach speed {r_line:.3g}× its proportional speed, changed within "
+                               "amax along the straight line to the target")
+            cyc.active.append("acceleration")
+            return r_line, qd * r_line
+        # no factor fits: the least demanding one up to `want`, each joint toward it within amax
+        prev = self._qd
+        adt = self._amax_f * c
+        inv = 1.0 / adt
+        grid = np.linspace(0.0, want, 33)
+        need = np.max(np.abs(np.outer(grid, qd) - prev) * inv, axis=1)
+        r_best = float(grid[int(np.argmin(need))])
+        qd_new = prev + np.minimum(np.maximum(qd * r_best - prev, -adt), adt)
+        cyc.flags.append("acceleration-limited")
+        cyc.reasons.append(f"approach turned faster than amax allows: each joint changes toward "
+                           f"{r_best:.3g}× the proportional speed within its own amax")
+        cyc.active.append("acceleration")
+        return r_best, qd_new
 
     def _approach_smoothed(self, cyc: _Cycle, q, qd, dt, target):
         """The approach law for the jerk-limited filter: a reference (q̇, q̈) that the filter
@@ -568,8 +671,9 @@ class ResolvedRateController:
         overshoot — and from which the arm can always still come to rest at the target.
 
         The approach is planned in joint space, where the geometry is flat: toward the
-        joint goal g at which the tool reaches the target (`_joint_goal`: Gauss-Newton,
-        converged when the target is new, refined every cycle), along the straight line
+        joint goal g at which the tool reaches the target (`JointGoal`: error-decreasing
+        Levenberg–Marquardt steps from the measured q inside the joint range; for a target
+        out of reach a least-squares best, where the arm stops), along the straight line
         u = (g − q)/x, x = ‖g − q‖. On u the progress may move at ẋ ≤ minᵢ vmaxᵢ/|uᵢ|,
         accelerate at α = η·minᵢ amaxᵢ/|uᵢ| and jerk at ζ = η·minᵢ jmaxᵢ/|uᵢ|. The
         filter's state (v, a) splits into its part along u, (ṡ, s̈) = (v·u, a·u), and the
@@ -578,12 +682,14 @@ class ResolvedRateController:
 
         * one period of the time-optimal jerk-limited progress from (ṡ, s̈) to rest at x
           (`ProgressProfile`, Ruckig with one degree of freedom) under ẋ ≤ min(vcap, K x)
-          (the proportional law caps the speed: the gain sets how fast the target is
-          approached), acceleration α and braking κ·α (headroom for the goal still
-          moving), re-planned every cycle from the measured q; if the stop no longer fits
-          at κ·α it brakes with the urgent share;
+          (the proportional law caps the speed the progress may reach, not how hard it
+          brakes: the gain sets how fast the target is approached), acceleration α and
+          braking κ·α (headroom for the goal still moving), re-planned every cycle from
+          the measured q; if the stop no longer fits at κ·α it brakes with the urgent
+          share, without speeding up;
         * one period of the jerk-limited decay of (v⊥, a⊥) to rest, the joints
-          synchronised, within a share η⊥ of amax and jmax (a second `VelocityFilter`).
+          synchronised, within a share η⊥ of amax and jmax (a second `VelocityFilter`),
+          projected off u (so the progress along u is exactly the planned one).
 
         Each is a jerk-limited motion within its share of the limits, and the shares add
         up to less than 1, so the sum is reachable from the filter's state in one period
@@ -596,8 +702,7 @@ class ResolvedRateController:
         law unshaped) at the goal or if Ruckig finds no progress motion."""
         f = self.filter
         assert f is not None
-        unscale = cyc.scale if (cyc.res.velocity_policy == "scaled" and cyc.scale > 0.0) else 1.0
-        goal = self._joint_goal(q, qd * (self._inv_kmax / unscale), target)
+        goal = self._goal.update(q, target, steps=_GOAL_STEPS)
         w = goal - q
         x = float(np.sqrt(w @ w))
         if not x > 0.0:
@@ -613,13 +718,20 @@ class ResolvedRateController:
         s_v = float(v @ u)
         s_a = float(a @ u)
         brake = _BRAKE_KAPPA * alpha
+        # the proportional cap K·x limits how fast the progress may get, never how hard it
+        # brakes: a speed above it is held (the braking curve then brings it to rest at x),
+        # else Ruckig would brake at full α toward a cap that shrinks with x and reach the
+        # end of its stop with an acceleration it can no longer ramp out (a reversal)
+        cap = min(vcap, max(K * x, s_v))
         if s_v > 0.0 and stopping_distance(s_v, s_a, brake, zeta) > x * (1.0 + 1e-6):
-            # late (the plan rides its braking curve, so only a disturbance gets here): brake
-            # with the urgent share; never accelerate with it
+            # late (the plan rides its braking curve, so only a disturbance gets here, e.g.
+            # a loop that integrates q̇·dt instead of the filter's motion): brake with the
+            # urgent share, and never speed up with it
             brake = alpha * (_URGENT_ETA / _APPROACH_ETA)
+            cap = min(vcap, s_v)
         if self._progress is None:
             self._progress = ProgressProfile(dt)
-        nxt = self._progress.step(x, min(max(s_v, -vcap), vcap), s_a, vmax=max(min(vcap, K * x), 1e-12),
+        nxt = self._progress.step(x, min(max(s_v, -vcap), vcap), s_a, vmax=max(cap, 1e-12),
                                   amax=alpha, jmax=zeta, dt=dt, brake=brake)
         if nxt is None:
             return None
@@ -632,44 +744,12 @@ class ResolvedRateController:
             off.dt = dt
         off.reset(v - s_v * u, a - s_a * u)
         _, w_off, b_off = off.update(self._zeros, self._zeros)
+        # the synchronised decay is not parallel to its start, so it has a part along u; taken
+        # out, the progress along u is exactly the planned one (else the off-line decay after a
+        # halt or a change of target pushed the progress past its braking curve)
+        w_off -= float(w_off @ u) * u
+        b_off -= float(b_off @ u) * u
         return v1 / (K * x), v1 * u + w_off, a1 * u + b_off
-
-    def _joint_goal(self, q, w, target):
-        """The joint position at which the tool reaches ``target``: damped Gauss-Newton
-        steps g ← g + Jᵀ(J Jᵀ + λ²I)⁻¹ e(g) at the goal itself (λ = 1e-3; least squares for
-        an arm that cannot zero every component), kept inside the position range. A new
-        target starts from the last goal (or q + w, w the first-order joint travel J⁺e)
-        and, if it is farther than `_GOAL_JUMP` from it, takes up to `_GOAL_ITERATIONS`
-        steps, so the joint motion heads for the final goal from the start; a target that
-        stays or moves a little (a moving target) gets one step per cycle. No joint moves by
-        more than `_GOAL_STEP` [rad or m] in one step (a trust region)."""
-        g = self._goal
-        iterations = 1
-        if self._goal_target is None or not np.array_equal(target, self._goal_target):
-            if g is None:
-                g = q + w
-            self._goal_target = target.copy()
-            iterations = _GOAL_ITERATIONS
-        elif g is None:
-            g = q + w
-        e = self._goal_error
-        for _ in range(iterations):
-            T, J = self.chain.fk_jacobian(g)
-            pose_error_into(e, target, T)
-            ee = float(e @ e)
-            if not ee > 1e-18:  # converged (to 1e-9 m and rad)
-                break
-            JJt = J @ J.T
-            JJt[np.diag_indices(6)] += 1e-6
-            step = J.T @ np.linalg.solve(JJt, e)
-            big = float(np.max(np.abs(step)))
-            if big > _GOAL_STEP:  # a trust region: near a singularity the step may be huge
-                step *= _GOAL_STEP / big
-            g = np.minimum(np.maximum(g + step, self._plo), self._phi)
-            if ee < _GOAL_JUMP**2:  # a target that moved a little (a moving one): one step
-                break
-        self._goal = g
-        return g
 
     # --- stage 4: the limits
     def _limit(self, cyc: _Cycle, q, dt) -> None:
@@ -988,11 +1068,15 @@ class ResolvedRateController:
         clipped = np.minimum(np.maximum(qd, lo_v), hi_v)
         changed = clipped != qd
         if changed.any():
-            joints = np.flatnonzero(changed).tolist()
-            if "joint-limit" not in flags:
-                flags.insert(0, "joint-limit")
-            reasons.insert(0, f"joint(s) {joints} braking for a position limit (jerk-limited stop)")
-            active.append("position")
+            # reported only where the clip changes the motion (not a 1e-13 rad/s remainder)
+            joints = np.flatnonzero(np.abs(clipped - qd) > 1e-9).tolist()
+            if joints:
+                if "joint-limit" not in flags:
+                    flags.insert(0, "joint-limit")
+                moving = np.abs(v[joints]).max() > 1e-9
+                reasons.insert(0, f"joint(s) {joints} " + ("braking for a position limit (jerk-limited "
+                                                           "stop)" if moving else "held at a position limit"))
+                active.append("position")
         else:
             clipped = qd  # unchanged: the same array (the approach's acceleration stays valid)
         return clipped, stop_up | stop_lo  # the braking joints stop time-optimally, on their own

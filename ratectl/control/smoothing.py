@@ -238,8 +238,8 @@ class ProgressProfile:
     def step(self, x: float, v: float, a: float, *, vmax: float, amax: float, jmax: float,
              dt: float, brake: float | None = None):
         """From progress 0 at speed ``v`` and acceleration ``a``, the time-optimal motion to
-        rest at ``x`` under |ẋ| ≤ vmax, |ẍ| ≤ amax, |x⃛| ≤ jmax, decelerating toward ``x``
-        by at most ``brake`` (≤ amax; default amax): returns its (speed, acceleration) one
+        rest at ``x`` under |ẋ| ≤ vmax, |x⃛| ≤ jmax, accelerating toward ``x`` by at most
+        ``amax`` and decelerating by at most ``brake`` (default amax): returns its (speed, acceleration) one
         period ``dt`` later, or None if Ruckig finds no motion."""
         if self._otg.delta_time != dt:
             self._otg.delta_time = dt
@@ -248,16 +248,12 @@ class ProgressProfile:
         inp.target_position = [x]
         inp.max_velocity = [vmax]
         inp.max_jerk = [jmax]
-        if brake is None or brake >= amax:
-            inp.max_acceleration = [amax]
-            inp.min_acceleration = None
-            lo, hi = -amax, amax
-        elif x >= 0.0:  # the target ahead: braking is a negative acceleration
+        brake = amax if brake is None else brake
+        if x >= 0.0:  # the target ahead: braking is a negative acceleration
             lo, hi = -brake, amax
-            inp.max_acceleration, inp.min_acceleration = [hi], [lo]
         else:
             lo, hi = -amax, brake
-            inp.max_acceleration, inp.min_acceleration = [hi], [lo]
+        inp.max_acceleration, inp.min_acceleration = [hi], [lo]
         inp.current_acceleration = [min(max(a, lo), hi)]
         try:
             res = self._otg.update(inp, self._out)

@@ -1,0 +1,344 @@
+"""The approach to a target in the user's servo loop, where it used to go wrong: targets the
+arm cannot reach, targets switched in mid-motion, goals near a joint limit, large steps,
+the QP with smoothing. Each test runs ``cmd = ctrl.step(q, target=T, dt=dt)`` and the
+loop's own integration, as a user writes it."""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import pytest
+
+import ratectl as rc
+from ratectl.control.goal import JointGoal
+from ratectl.spatial import pose_error
+
+from . import harness
+
+DATA = os.path.join(os.path.dirname(__file__), "..", "data")
+
+
+def _rot(axis, angle):
+    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+
+
+def _arm6_offset():
+    """A 6-axis arm with offsets, from URDF (no acceleration limits in the file)."""
+    chain = rc.Chain.from_urdf(os.path.join(DATA, "arm6_offset.urdf"), tip="tool0")
+    return harness.smoothing_limits(chain)
+
+
+def _run(chain, q0, target, *, smoothing, dt, steps, solver=None, targets=None):
+    """The user's Euler loop; returns the commands. ``targets(k)`` overrides ``target``."""
+    ctrl = rc.ResolvedRateController(chain, smoothing=smoothing, solver=solver)
+    q = np.array(q0, dtype=float)
+    cmds = []
+    for k in range(steps):
+        cmd = ctrl.step(q, target=target if targets is None else targets(k), dt=dt)
+        q = q + cmd.qd * dt
+        cmds.append(cmd)
+    return cmds, q
+
+
+# (name, chain factory, q0, tool shift [m]): targets out of reach (IK does not converge)
+UNREACHABLE = [
+    ("ur5e-far", rc.robots.ur5e, [0.3, -1.3, 1.6, -1.9, -1.2, 0.2], [1.5, 0.5, 0.3]),
+    ("panda-far", rc.robots.panda, [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785], [1.5, 0.5, 0.3]),
+    ("panda-limits", rc.robots.panda, [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785], [0.4, 0.2, 0.0]),
+    ("puma560-far", rc.robots.puma560, [0.2, 0.6, -2.6, 0.3, 0.8, 0.2], [1.5, 0.5, 0.3]),
+    ("arm6-urdf-far", _arm6_offset, [0.2, 0.3, -0.8, 0.3, 0.7, 0.2], [1.5, 0.5, 0.3]),
+    ("rpr-plane", rc.robots.rpr, [0.2, 0.4, 0.3], [0.4, 0.2, 0.0]),
+]
+
+
+@pytest.mark.parametrize(("name", "factory", "q0", "shift"), UNREACHABLE, ids=[u[0] for u in UNREACHABLE])
+def test_unreachable_target_with_smoothing_error_never_grows_and_the_arm_stops(name, factory, q0, shift):
+    """Before: the smoothed approach ran away (a Panda 300 mm from its target ended 866 mm
+    away, a UR5e still moved at 3 rad/s after 3 s) and reported negative speed factors."""
+    chain = factory()
+    T = chain.fk(np.array(q0))
+    T[:3, 3] += shift
+    cmds, q = _run(chain, q0, T, smoothing=True, dt=2e-3, steps=1500)
+    ep = np.array([c.position_error for c in cmds])
+    rise = float(np.max(ep - np.minimum.accumulate(ep)))
+    assert rise <= 1e-6, f"{name}: the position error grew by {rise * 1e3:.3f} mm on the way"
+    assert np.abs(cmds[-1].qd).max() < 1e-6, f"{name}: still moving after 3 s: {cmds[-1]}"
+    assert not any("slowed to -" in c.reason for c in cmds)
+    # it stops where the unsmoothed law stops (a best effort), not farther away
+    plain, _ = _run(chain, q0, T, smoothing=False, dt=2e-3, steps=1500)
+    assert ep[-1] <= plain[-1].position_error + 2e-3
+
+
+def _panda_switch_case():
+    chain = rc.robots.panda()
+    q0 = np.array([1.994681, -0.379338, -0.040429, -1.040379, -2.4973, 2.077097, -1.324347])
+    d = np.array([-0.087551, -0.818014, 0.568496])
+    T0 = chain.fk(q0)
+    A = T0.copy()
+    A[:3, 3] += 0.1 * d  # out of reach within the joint limits
+    B = T0.copy()
+    B[:3, 3] -= 0.05 * d
+    B[:3, :3] = _rot([0, 0, 1], 0.3) @ T0[:3, :3]
+    return chain, q0, A, B
+
+
+@pytest.mark.parametrize("switch", [50, 250])
+def test_target_switched_in_motion_from_an_unreachable_to_a_reachable_one(switch):
+    """Before: the goal of B was searched from A's least-squares goal; the arm ended 1315 mm
+    and 155° from B."""
+    chain, q0, A, B = _panda_switch_case()
+    cmds, q = _run(chain, q0, None, smoothing=True, dt=1e-3, steps=3000,
+                   targets=lambda k: A if k < switch else B)
+    e = pose_error(B, chain.fk(q))
+    assert np.linalg.norm(e[:3]) <= 1e-4 and np.linalg.norm(e[3:]) <= 1e-3
+    assert cmds[-1].status == "target-reached"
+    # after the switch the arm is never farther from B than when B arrived (it brakes the
+    # motion toward A within a few cm)
+    assert max(c.position_error for c in cmds[switch:]) <= cmds[switch].position_error + 0.05
+
+
+def test_smoothed_goal_beside_a_joint_limit_on_the_arms_own_branch():
+    """PUMA 560, joint 0 to 0.01 rad inside its limit: before, the goal flipped the wrist and
+    the arm stopped 44° off with 'joint-limit'."""
+    chain = rc.robots.puma560()
+    q0 = np.array([1.7825268031909274, 1.2392556680110007, -1.0442400339519786,
+                   0.5967183387424391, 0.12803030006821403, -0.02857083828061521])
+    q1 = q0.copy()
+    q1[0] += 1.0
+    cmds, q = _run(chain, q0, chain.fk(q1), smoothing=True, dt=2e-3, steps=1500)
+    assert cmds[-1].position_error <= 1e-4 and cmds[-1].orientation_error <= 1e-3
+    assert np.max(np.abs(q - q1)) < 1e-3  # the same configuration, not another IK branch
+    assert not any("slowed to -" in c.reason for c in cmds)
+
+
+# (arm, seed, case index): 20–50 cm steps with turns up to 90° that failed with smoothing
+LARGE_SMOOTHED = [
+    ("builtin:panda", 7, 0),   # stopped 7.6 mm / 3.1° off with joints on their limits
+    ("builtin:panda", 8, 0),   # overshot by 288 mm
+    ("builtin:panda", 7, 4),
+]
+
+
+@pytest.mark.parametrize(("arm", "seed", "index"), LARGE_SMOOTHED,
+                         ids=[f"{a}-seed{s}-{i}" for a, s, i in LARGE_SMOOTHED])
+def test_large_smoothed_steps_reach_without_overshoot(arm, seed, index):
+    chain = harness.all_arms()[arm]()
+    case = harness.make_cases(arm, chain, index + 1, seed=seed, steps=(0.2, 0.5),
+                              max_turn=math.radians(90))[index]
+    out = harness.run_case(harness.smoothing_limits(chain), case, smoothing=True, dt=2e-3, loop="euler")
+    assert out.ok(case.step), out
+
+
+def test_large_smoothed_step_on_an_offset_urdf_arm():
+    """A 6-axis URDF arm with offsets, 223 mm step: before, it never settled (56 mm / 46° off)."""
+    chain = _arm6_offset()
+    case = harness.make_cases("arm6", chain, 6, seed=5, steps=(0.2, 0.5), max_turn=math.radians(90))[5]
+    out = harness.run_case(chain, case, smoothing=True, dt=2e-3, loop="euler")
+    assert out.ok(case.step), out
+
+
+def test_qp_with_smoothing_reaches_the_readme_step():
+    """Before: the QP re-resolved a scaled twist around the filter's lagging state and the
+    UR5e crawled (216.7 mm of 223.6 mm left after 3 s, 'slowed to 0.00063×')."""
+    chain = rc.robots.ur5e()
+    q0 = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
+    T = chain.fk(q0)
+    T[:3, 3] += [0.2, 0.1, 0.0]
+    ctrl = rc.ResolvedRateController(chain, smoothing=True, solver=rc.solvers.QP())
+    q = q0.copy()
+    reached_at = None
+    for k in range(1500):
+        cmd = ctrl.step(q, target=T, dt=1e-3)
+        q = cmd.q_next
+        if cmd.status == "target-reached":
+            reached_at = (k + 1) * 1e-3
+            break
+    assert reached_at is not None, cmd
+
+
+def test_joint_goal_descends_and_stays_inside_the_range():
+    """`JointGoal`: every accepted step lowers the pose error; the goal stays inside the
+    joint range by its margin; an unreachable target settles as a best effort."""
+    chain = rc.robots.panda()
+    q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    T = chain.fk(q0)
+    T[:3, 3] += [0.4, 0.2, 0.0]
+    goal = JointGoal(chain, chain.lower, chain.upper, position_tolerance=1e-4, orientation_tolerance=1e-3)
+    errors = []
+    for _ in range(100):
+        g = goal.update(q0, T, steps=5)
+        errors.append(math.hypot(goal.position_error, goal.orientation_error))
+        assert np.all(g >= chain.lower) and np.all(g <= chain.upper)
+    assert np.all(np.diff(errors) <= 1e-15)
+    assert goal.settled and goal.best_effort and not goal.reached
+    # a reachable target of a 6-joint arm: reached, on the start's branch
+    chain = rc.robots.ur5e()
+    q0 = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
+    q1 = q0 + 0.3
+    goal = JointGoal(chain, chain.lower, chain.upper, position_tolerance=1e-4, orientation_tolerance=1e-3)
+    g = goal.update(q0, chain.fk(q1), steps=100)
+    assert goal.reached and goal.settled and np.max(np.abs(g - q1)) < 1e-6
+
+
+def _ur5e_readme_step():
+    chain = rc.robots.ur5e()
+    q0 = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
+    T = chain.fk(q0)
+    T[:3, 3] += [0.2, 0.1, 0.0]
+    return chain, q0, T
+
+
+def _tool_speed(chain, q, qd):
+    twist = chain.jacobian(q) @ qd
+    return float(np.linalg.norm(twist[:3])), float(np.linalg.norm(twist[3:]))
+
+
+@pytest.mark.parametrize("smoothing", [False, True])
+def test_resume_after_a_stale_target_halt_without_overshoot(smoothing):
+    """20 cycles of stale stamps at 0.3 s (a halt that is not latched), then fresh targets.
+    Before, with smoothing: 15.5 mm overshoot (allowed 2.3 mm) and 'target-reached' while
+    the tool passed the target at 0.256 m/s."""
+    chain, q0, T = _ur5e_readme_step()
+    p0 = chain.fk(q0)[:3, 3]
+    L = float(np.linalg.norm(T[:3, 3] - p0))
+    u = (T[:3, 3] - p0) / L
+    ctrl = rc.ResolvedRateController(chain, smoothing=smoothing)
+    q = q0.copy()
+    beyond = -math.inf
+    statuses = []
+    for k in range(2500):
+        stamp = ctrl.time - 0.5 if 300 <= k < 320 else None
+        cmd = ctrl.step(q, target=T, dt=1e-3, stamp=stamp)
+        statuses.append(cmd.status)
+        if cmd.status == "target-reached":
+            v, w = _tool_speed(chain, q, cmd.qd)
+            assert v <= 10.0 * 1e-4 + 1e-12 and w <= 10.0 * 1e-3 + 1e-12, (k, v, w)
+        q = q + cmd.qd * 1e-3
+        beyond = max(beyond, float((chain.fk(q)[:3, 3] - p0) @ u) - L)
+    assert statuses[300:320] == ["halted"] * 20
+    assert beyond <= 0.01 * L + 1e-4
+    assert cmd.status == "target-reached" and cmd.position_error <= 1e-4
+
+
+def test_target_reached_only_at_rest_and_the_documented_loop_ends():
+    """At a singular target (UR5e wrist, q5 = 0) the error reached 1e-14 m but the status
+    stayed 'damped' forever; the user's `if cmd.status == "target-reached": break` must end,
+    and only with the arm at rest."""
+    chain = rc.robots.ur5e()
+    q = np.array([0.3, -1.3, 1.6, -1.9, 0.3, 0.2])
+    T = chain.fk(np.array([0.3, -1.3, 1.6, -1.9, 0.0, 0.2]))
+    ctrl = rc.ResolvedRateController(chain)
+    for _ in range(3000):
+        cmd = ctrl.step(q, target=T, dt=1e-3)
+        if cmd.status == "target-reached":
+            break
+        q = cmd.q_next
+    assert cmd.status == "target-reached" and "target-reached" in cmd.flags
+    assert cmd.position_error <= 1e-4 and cmd.orientation_error <= 1e-3
+    v, w = _tool_speed(chain, q, cmd.qd)
+    assert v <= 1e-3 and w <= 1e-2
+
+
+@pytest.mark.parametrize("smoothing", [False, True])
+def test_a_target_with_a_joint_on_its_limit_is_reached(smoothing):
+    """The target's IK has a joint exactly on its limit (before: 'joint-limit' at the target
+    and no 'target-reached', or a goal on another branch)."""
+    chain = rc.robots.puma560()
+    q1 = np.clip((chain.lower + chain.upper) / 2, -1, 1) + 0.1
+    q1[0] = chain.upper[0]
+    q0 = q1.copy()
+    q0[0] -= 0.3
+    ctrl = rc.ResolvedRateController(chain, smoothing=smoothing)
+    q = q0.copy()
+    for _ in range(3000):
+        cmd = ctrl.step(q, target=chain.fk(q1), dt=1e-3)
+        if cmd.status in ("target-reached", "target-unreachable"):
+            break
+        q = cmd.q_next
+    assert cmd.status == "target-reached", cmd
+    assert np.all(q <= chain.upper)
+
+
+@pytest.mark.parametrize("smoothing", [False, True])
+def test_an_unreachable_target_ends_in_target_unreachable_at_rest(smoothing):
+    """rpr, 364 mm from a target it cannot reach, at rest: before, status 'regular' with an
+    empty reason."""
+    chain = rc.robots.rpr()
+    q = np.array([0.2, 0.4, 0.3])
+    T = chain.fk(q)
+    T[:3, 3] += [0.4, 0.2, 0.0]
+    ctrl = rc.ResolvedRateController(chain, smoothing=smoothing)
+    seen = []
+    for _ in range(1500):
+        cmd = ctrl.step(q, target=T, dt=2e-3)
+        seen.append(cmd.status)
+        q = q + cmd.qd * 2e-3
+    assert cmd.status == "target-unreachable" and "best effort" in cmd.reason, cmd
+    assert np.abs(cmd.qd).max() < 1e-6
+    # not while it was still on its way
+    first = seen.index("target-unreachable")
+    assert all(s == "target-unreachable" for s in seen[first:])
+    assert first > 50
+
+
+def test_a_position_limit_hold_at_rest_is_not_reported_as_braking():
+    """'braking for a position limit (jerk-limited stop)' was repeated for seconds while
+    |q̇| was 1e-13: a joint at rest is held, not braking."""
+    chain = rc.robots.panda()
+    case = harness.make_cases("builtin:panda", chain, 1, seed=7, steps=(0.2, 0.5),
+                              max_turn=math.radians(90))[0]
+    ctrl = rc.ResolvedRateController(chain, smoothing=True)
+    q = case.q0.copy()
+    for k in range(3000):
+        cmd = ctrl.step(q, target=case.target, dt=2e-3)
+        q = q + cmd.qd * 2e-3
+        if k > 2000:
+            assert "braking" not in cmd.reason or np.abs(cmd.qd).max() > 1e-9, cmd
+    assert cmd.status == "target-reached"
+
+
+# (arm, seed, case index): large steps without smoothing
+LARGE_PLAIN = [
+    ("builtin:panda", 7, 4),   # overshot by 43 mm: the tool left its line by 32 mm
+    ("builtin:panda", 7, 0),
+    ("builtin:iiwa7", 8, 3),
+]
+
+
+@pytest.mark.parametrize(("arm", "seed", "index"), LARGE_PLAIN,
+                         ids=[f"{a}-seed{s}-{i}" for a, s, i in LARGE_PLAIN])
+@pytest.mark.parametrize("dt", [1e-3, 4e-3])
+def test_large_steps_without_smoothing_within_the_overshoot_limit(arm, seed, index, dt):
+    chain = harness.all_arms()[arm]()
+    case = harness.make_cases(arm, chain, index + 1, seed=seed, steps=(0.2, 0.5),
+                              max_turn=math.radians(90))[index]
+    out = harness.run_case(chain, case, smoothing=False, dt=dt, loop="euler")
+    assert out.ok(case.step), out
+
+
+def test_the_approach_keeps_the_tool_on_its_line_within_amax():
+    """Panda, 439 mm step: the change of q̇ was scaled uniformly (×0.015), the joints kept
+    their old direction and the tool left its straight line by 32 mm."""
+    chain = rc.robots.panda()
+    case = harness.make_cases("builtin:panda", chain, 5, seed=7, steps=(0.2, 0.5),
+                              max_turn=math.radians(90))[4]
+    ctrl = rc.ResolvedRateController(chain)
+    q = case.q0.copy()
+    p0 = chain.fk(q)[:3, 3]
+    u = case.target[:3, 3] - p0
+    u /= np.linalg.norm(u)
+    worst = 0.0
+    inv_a = 1.0 / chain.amax
+    qd_prev = np.zeros(chain.dof)
+    for _ in range(1000):
+        cmd = ctrl.step(q, target=case.target, dt=2e-3)
+        assert np.max(np.abs(cmd.qd - qd_prev) * inv_a) / 2e-3 <= 1.0 + 1e-9
+        qd_prev = cmd.qd
+        q = q + cmd.qd * 2e-3
+        d = chain.fk(q)[:3, 3] - p0
+        worst = max(worst, float(np.linalg.norm(d - (d @ u) * u)))
+    assert worst < 0.015, f"the tool left its line by {worst * 1e3:.1f} mm"
