@@ -70,9 +70,11 @@ class Waypoints(Path):
         rotation_length: ρ [m/rad], as for `Line`.
 
     Attributes:
-        segments: the `Line` segments; knots: (N,) path parameter S_i of each waypoint [m];
-        blends: (N,) blend half-length d_i [m] (0 at the ends); corner_distances: (N,)
-        distance of p(S_i) from waypoint i [m] (0 at the ends and without blends).
+        segments: the `Line` segments.
+        knots: (N,) path parameter S_i of each waypoint [m].
+        blends: (N,) blend half-length d_i [m] (0 at the ends).
+        corner_distances: (N,) distance of p(S_i) from waypoint i [m] (0 at the ends and
+            without blends).
     """
 
     def __init__(self, poses: ArrayLike, *, blend: float = 0.02, speed: float, acceleration: float,
