@@ -172,6 +172,10 @@ class ResolvedRateController:
         self.chain = chain
         self._n = n = chain.dof
         self.solver = default_solver() if solver is None else solver
+        if isinstance(self.solver, type):
+            raise InputError(f"solver must be a solver instance: pass {self.solver.__name__}() (with its "
+                             f"options), not the class {self.solver.__name__}", argument="solver",
+                             value=solver)
         if not callable(getattr(self.solver, "solve", None)):
             raise InputError("solver must have a solve(J, xi, ...) method (see ratectl.solvers), "
                              f"got {type(self.solver).__name__}", argument="solver", value=solver)

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import positive_number
 from ..control import ResolvedRateController, move
 from ..errors import InputError
 from ..paths import Path
@@ -81,6 +82,7 @@ def follow(chain: Chain, path: Path, q0: ArrayLike, *, dt: float,
         ``plan`` (the `GovernorPlan`), ``approach``, ``solver``, ``smoothing``, ``governor``.
     """
     dt, q, ctrl = _validate(chain, path, q0, dt, controller)
+    settle, tolerance, path_tolerance = _options(governor, settle, tolerance, path_tolerance)
     ctrl.reset()
     info: dict = {"solver": type(ctrl.solver).__name__, "smoothing": ctrl.filter is not None}
     # --- reach the start of the path
@@ -128,10 +130,46 @@ def _validate(chain, path, q0, dt, controller):
         raise InputError(f"q0 is outside the joint position limits ({detail}); start inside the "
                          "range", argument="q0", value=q0)
     ctrl = controller if controller is not None else ResolvedRateController(chain)
-    if ctrl.chain is not chain and ctrl.chain.dof != chain.dof:
-        raise InputError("the controller was built for another chain", argument="controller",
+    if not isinstance(ctrl, ResolvedRateController):
+        raise InputError(f"controller must be a ratectl.ResolvedRateController, got "
+                         f"{type(controller).__name__}", argument="controller", value=controller)
+    if not _same_kinematics(ctrl.chain, chain, q):
+        raise InputError(f"the controller was built for another arm ({ctrl.chain.name!r}, "
+                         f"{ctrl.chain.dof} joints) than the one given ({chain.name!r}, {chain.dof} "
+                         "joints): their forward kinematics differ", argument="controller",
                          value=controller)
     return dt, q, ctrl
+
+
+def _same_kinematics(a: Chain, b: Chain, q: np.ndarray) -> bool:
+    """True if chains ``a`` and ``b`` are the same arm: the same object, or the same number of
+    joints and the same tool pose (to 1e-12) at q and at two seeded random configurations
+    (two calls of ``rc.robots.ur5e()`` are the same arm)."""
+    if a is b:
+        return True
+    if a.dof != b.dof:
+        return False
+    qs = np.vstack([q, b.random_q(2, rng=np.random.default_rng(0))])
+    return bool(np.allclose(a.fk(qs), b.fk(qs), rtol=0.0, atol=1e-12))
+
+
+def _options(governor, settle, tolerance, path_tolerance):
+    """Checked (settle, tolerance, path_tolerance) or InputError; ``governor`` must be
+    True, False, None or a `Governor`."""
+    if not (governor is None or isinstance(governor, bool | Governor)):
+        raise InputError(f"governor must be True, False or a ratectl.planning.Governor, got {governor!r}",
+                         argument="governor", value=governor)
+    settle = positive_number("settle", settle, allow_zero=True, unit="[s]")
+    pairs = []
+    for name, value in (("tolerance", tolerance), ("path_tolerance", path_tolerance)):
+        try:
+            p, o = value
+        except (TypeError, ValueError):
+            raise InputError(f"{name} must be a pair (position [m], orientation [rad]), got {value!r}",
+                             argument=name, value=value) from None
+        pairs.append((positive_number(f"{name}[0] (position)", p, unit="[m]"),
+                      positive_number(f"{name}[1] (orientation)", o, unit="[rad]")))
+    return settle, pairs[0], pairs[1]
 
 
 def _command(ctrl, path, plan, k, q, dt):

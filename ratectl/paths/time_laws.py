@@ -139,7 +139,13 @@ class JerkLimited(TimeLaw):
 
 def make_time_law(law: str, length: float, *, speed: float, acceleration: float,
                   jerk: float | None = None) -> TimeLaw:
-    """A time law by name (one of `LAWS`)."""
+    """A time law by name (one of `LAWS`); ``jerk`` belongs to the jerk-limited law only (a
+    trapezoid or a quintic has no jerk setting, so a jerk given with them is refused rather
+    than ignored)."""
+    if jerk is not None and law in ("trapezoidal", "quintic"):
+        raise InputError(f"jerk= is a setting of law='jerk-limited' only; law={law!r} has none "
+                         "(drop jerk, or drop law: a jerk alone selects the jerk-limited law)",
+                         argument="jerk", value=jerk)
     if law == "trapezoidal":
         return Trapezoidal(length, speed=speed, acceleration=acceleration)
     if law == "quintic":

@@ -483,6 +483,12 @@ def test_bad_options_are_refused_by_name(ur5e, options):
     assert info.value.argument == name and name in str(info.value)
 
 
+def test_a_solver_class_instead_of_an_instance_says_so(ur5e):
+    with pytest.raises(InputError, match=r"pass QP\(\)") as info:
+        rc.ResolvedRateController(ur5e, solver=rc.solvers.QP)
+    assert info.value.argument == "solver"
+
+
 def test_a_timeout_of_inf_means_targets_never_go_stale(ur5e):
     ctrl = rc.ResolvedRateController(ur5e, timeout=float("inf"))
     cmd = ctrl.step(Q_REG, target=ur5e.fk(Q_REG), dt=1e-3, stamp=-1e9)

@@ -274,6 +274,30 @@ def test_follow_input_errors(ur5e, scenario):
         rc.follow(ur5e, line, outside, dt=DT)
 
 
+@pytest.mark.parametrize(("options", "argument"), [
+    ({"controller": "ctrl"}, "controller"),
+    ({"governor": "yes"}, "governor"),
+    ({"settle": -1.0}, "settle"),
+    ({"tolerance": 1e-4}, "tolerance"),
+    ({"tolerance": (0.0, 0.0)}, "tolerance[0] (position)"),
+    ({"path_tolerance": (1e-4, float("nan"))}, "path_tolerance[1] (orientation)"),
+])
+def test_follow_options_are_checked_before_any_work(ur5e, scenario, options, argument):
+    line, q0 = scenario
+    with pytest.raises(InputError) as info:
+        rc.follow(ur5e, line, q0, dt=DT, **options)
+    assert info.value.argument == argument
+
+
+def test_follow_refuses_a_controller_of_another_arm_with_the_same_joint_count(ur5e, scenario):
+    line, q0 = scenario
+    with pytest.raises(InputError, match=r"another arm \('PUMA 560'.*forward kinematics differ"):
+        rc.follow(ur5e, line, q0, dt=DT, controller=rc.ResolvedRateController(rc.robots.puma560()))
+    # the same arm built twice is the same arm
+    run = rc.follow(ur5e, line, q0, dt=DT, controller=rc.ResolvedRateController(rc.robots.ur5e()))
+    assert run.completed
+
+
 def test_chain_without_limits():
     """Absent limits (inf) must not break the governor, the controller or the record."""
     rows = [rc.DH(a=r.a, alpha=r.alpha, d=r.d) for r in rc.robots.ur5e().table]

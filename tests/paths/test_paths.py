@@ -60,6 +60,11 @@ def test_jerk_limited_law_respects_jerk():
     assert tl.duration > Trapezoidal(0.5, speed=0.3, acceleration=1.0).duration
     path = rc.paths.Line(np.eye(4), _pose(np.eye(3), [0.5, 0, 0]), speed=0.3, acceleration=1.0, jerk=5.0)
     assert path.law.name == "jerk-limited"
+    for law in ("trapezoidal", "quintic"):  # a jerk they cannot honour is refused, not ignored
+        with pytest.raises(rc.InputError, match="jerk-limited' only") as info:
+            rc.paths.Line(np.eye(4), _pose(np.eye(3), [0.5, 0, 0]), speed=0.3, acceleration=1.0,
+                          jerk=5.0, law=law)
+        assert info.value.argument == "jerk"
 
 
 def test_line_geometry_twist_and_time():
