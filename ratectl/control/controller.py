@@ -97,6 +97,31 @@ def _info(res: Any) -> Mapping[str, Any]:
 _NO_INFO: Mapping[str, Any] = MappingProxyType({})
 
 
+def _checked_solver(solver):
+    """The solver option: None → the default solver; an instance with a ``solve`` method;
+    otherwise InputError (a solver class instead of an instance is named as such)."""
+    solver = default_solver() if solver is None else solver
+    if isinstance(solver, type):
+        raise InputError(f"solver must be a solver instance: pass {solver.__name__}() (with its "
+                         f"options), not the class {solver.__name__}", argument="solver", value=solver)
+    if not callable(getattr(solver, "solve", None)):
+        raise InputError("solver must have a solve(J, xi, ...) method (see ratectl.solvers), "
+                         f"got {type(solver).__name__}", argument="solver", value=solver)
+    return solver
+
+
+def _checked_gain(gain) -> np.ndarray:
+    """The gain option as 6 non-negative finite values [1/s], or InputError."""
+    try:
+        K = np.broadcast_to(np.asarray(gain, dtype=float), (6,)).copy()
+    except (TypeError, ValueError):  # not numbers, or not a scalar / 6 values
+        K = None
+    if K is None or not np.all(np.isfinite(K)) or np.any(K < 0):
+        raise InputError(f"gain must be a non-negative scalar or 6 values [1/s], got {gain!r}",
+                         argument="gain", value=gain)
+    return K
+
+
 def _float_array(value, name: str, what: str) -> np.ndarray:
     try:
         return np.asarray(value, dtype=float)
@@ -171,21 +196,8 @@ class ResolvedRateController:
 
         self.chain = chain
         self._n = n = chain.dof
-        self.solver = default_solver() if solver is None else solver
-        if isinstance(self.solver, type):
-            raise InputError(f"solver must be a solver instance: pass {self.solver.__name__}() (with its "
-                             f"options), not the class {self.solver.__name__}", argument="solver",
-                             value=solver)
-        if not callable(getattr(self.solver, "solve", None)):
-            raise InputError("solver must have a solve(J, xi, ...) method (see ratectl.solvers), "
-                             f"got {type(self.solver).__name__}", argument="solver", value=solver)
-        try:
-            K = np.broadcast_to(np.asarray(gain, dtype=float), (6,)).copy()
-        except (TypeError, ValueError):  # not numbers, or not a scalar / 6 values
-            K = None
-        if K is None or not np.all(np.isfinite(K)) or np.any(K < 0):
-            raise InputError(f"gain must be a non-negative scalar or 6 values [1/s], got {gain!r}",
-                             argument="gain", value=gain)
+        self.solver = _checked_solver(solver)
+        K = _checked_gain(gain)
         self.gain = K
         kmax = float(K.max())
         self._inv_kmax = 1.0 / kmax if kmax > 0.0 else 0.0
