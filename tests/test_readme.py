@@ -33,7 +33,7 @@ ROOT = README.parent
 def test_readme_says_how_to_install_from_the_source_tree():
     text = README.read_text(encoding="utf-8")
     assert "not on a package index" in text and 'pip install -e ".[plot]"' in text
-    assert "a few seconds" not in text                      # measured: about 10 s
+    assert "a few seconds" not in text                      # measured: about 3 s
     assert "velocity-scaled" in text.split("```python")[1].split("```")[1]   # explained after the example
 
 
