@@ -568,17 +568,29 @@ class ResolvedRateController:
             r, qd_ref, qdd_ref = plan
             r_brake = r
         elif self._has_a:
+            enforcing = getattr(self.solver, "enforces_limits", False)
+            held = None
+            if not enforcing and self._has_p and self._near_position_limit(q, dt):
+                held = self._resolve_without_held_joints(cyc, q, dt)
+                if held is not None:
+                    qd = cyc.qd
+                    speed = np.abs(qd)
+                    moving = (speed > 0.0) & ~held
+                    if not moving.any():
+                        return None
             w = speed * self._inv_kmax
             adt = self._amax_f * (_APPROACH_ETA * dt)
             b = braking_speed_discrete(w, adt, 1.0 / (adt * dt), 1.0 / dt)
             r = r_brake = float(np.min(b[moving] / speed[moving]))
             qd_ref, qdd_ref = None, None
-            if not getattr(self.solver, "enforces_limits", False):
-                r, qd_ref = self._within_amax(cyc, qd, min(r, 1.0), dt)
+            if not enforcing:
+                r, qd_ref = self._within_amax(cyc, qd, min(r, 1.0), dt, held)
             if qd_ref is None:
                 if r >= 1.0:
                     return None
                 qd_ref = qd * r
+                if held is not None:
+                    qd_ref[held] = qd[held]
         else:
             return None
         cyc.approach = max(r, 0.0)
@@ -612,7 +624,42 @@ class ResolvedRateController:
         cyc.qdd_ff = qdd_ref
         return None
 
-    def _within_amax(self, cyc: _Cycle, qd, r, dt):
+    def _resolve_without_held_joints(self, cyc: _Cycle, q, dt) -> np.ndarray | None:
+        """Joints the position box holds at a limit, taken out of the solve (no smoothing, a
+        solver that does not enforce limits): returns the mask of held joints, or None.
+
+        A joint whose solver q̇ the position side of its velocity box (`_position_box`)
+        would clip is held at that box value b_i; the others are solved again for the rest
+        of the twist, ξ − J_i b_i, with column i zeroed (up to n rounds, as the new solution
+        may push another joint into its limit). Without this the held joint's demand, which
+        the clip never executes, throttled every other joint: the approach's amax factor
+        along the line (≈ amax·dt/|q̇_i|, e.g. ×0.0115 on a Panda with joint 4 on its limit)
+        and the uniform vmax scaling, so an arm whose target is out of reach crept toward it
+        for minutes instead of reaching its best effort and reporting ``target-unreachable``."""
+        hi, lo = self._position_box(q, dt)
+        qd = cyc.qd
+        held = (qd > hi) | (qd < lo)
+        if not held.any():
+            return None
+        J, xi = cyc.J, cyc.xi
+        for _ in range(self._n):
+            fixed = np.minimum(np.maximum(qd, lo), hi)
+            J_free = J.copy()
+            J_free[:, held] = 0.0
+            res = self.solver.solve(J_free, xi - J[:, held] @ fixed[held], limits=self.limits, q=q,
+                                    qd_prev=self._qd, dt=dt)
+            qd = np.array(res.qd, dtype=float)
+            if not _finite_sum(qd):
+                return None
+            qd[held] = fixed[held]
+            more = ((qd > hi) | (qd < lo)) & ~held
+            if not more.any():
+                break
+            held |= more
+        cyc.qd = qd
+        return held
+
+    def _within_amax(self, cyc: _Cycle, qd, r, dt, held=None):
         """The approach's q̇ within amax of the previous one, as close to the straight tool
         approach as amax allows: returns (r, q̇) or (r, None) to leave it to the limits.
 
@@ -629,9 +676,11 @@ class ResolvedRateController:
         lo = -math.inf
         r_v = hi = math.inf
         fits = True
-        for v, p, a, vm in zip(qd.tolist(), self._qd.tolist(), self._amax_f.tolist(), self._vf.tolist(),
-                               strict=True):
+        for i, (v, p, a, vm) in enumerate(zip(qd.tolist(), self._qd.tolist(), self._amax_f.tolist(),
+                                              self._vf.tolist(), strict=True)):
             room = a * c
+            if held is not None and held[i]:
+                continue  # a joint held at its limit keeps its position-box value (not scaled)
             if v == 0.0:
                 fits = fits and abs(p) <= room  # a joint the line does not move must stop in time
                 continue
@@ -650,15 +699,22 @@ class ResolvedRateController:
             cyc.reasons.append(f"approach speed {r_line:.3g}× its proportional speed, changed within "
                                "amax along the straight line to the target")
             cyc.active.append("acceleration")
-            return r_line, qd * r_line
+            qd_line = qd * r_line
+            if held is not None:
+                qd_line[held] = qd[held]
+            return r_line, qd_line
         # no factor fits: the least demanding one up to `want`, each joint toward it within amax
         prev = self._qd
         adt = self._amax_f * c
         inv = 1.0 / adt
         grid = np.linspace(0.0, want, 33)
-        need = np.max(np.abs(np.outer(grid, qd) - prev) * inv, axis=1)
+        free = slice(None) if held is None else ~held
+        need = np.max((np.abs(np.outer(grid, qd) - prev) * inv)[:, free], axis=1, initial=0.0)
         r_best = float(grid[int(np.argmin(need))])
-        qd_new = prev + np.minimum(np.maximum(qd * r_best - prev, -adt), adt)
+        goal = qd * r_best
+        if held is not None:
+            goal[held] = qd[held]
+        qd_new = prev + np.minimum(np.maximum(goal - prev, -adt), adt)
         cyc.flags.append("acceleration-limited")
         cyc.reasons.append(f"approach turned faster than amax allows: each joint changes toward "
                            f"{r_best:.3g}× the proportional speed within its own amax")

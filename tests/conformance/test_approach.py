@@ -342,3 +342,28 @@ def test_the_approach_keeps_the_tool_on_its_line_within_amax():
         d = chain.fk(q)[:3, 3] - p0
         worst = max(worst, float(np.linalg.norm(d - (d @ u) * u)))
     assert worst < 0.015, f"the tool left its line by {worst * 1e3:.1f} mm"
+
+
+def test_without_smoothing_a_joint_held_at_its_limit_does_not_throttle_the_others():
+    """Panda, default solver, no smoothing, a target beyond what joint 4's range allows:
+    the joint clipped at its limit held the approach's amax factor along the line at
+    ≈ amax·dt/|q̇_4| (×0.0115) and the vmax scaling, so the arm crept at 4 mm/s, still
+    'joint-limit' after 30 s, and the documented loop never ended. Held joints are now
+    taken out of the solve: the others reach the best effort, which ends the loop."""
+    chain = rc.robots.panda()
+    q = np.array([-2.29717734, -1.25222334, 0.52003147, -2.7718, -0.52858444, 1.07075312, 0.88980891])
+    T = np.array([[-0.50014831, -0.72925931, -0.46693953, -0.19726279],
+                  [-0.86478032, 0.39274595, 0.31289872, -0.09463792],
+                  [-0.04479569, 0.56029588, -0.82708033, 0.25749457],
+                  [0.0, 0.0, 0.0, 1.0]])
+    ctrl = rc.ResolvedRateController(chain)
+    e0 = float(np.linalg.norm(pose_error(T, chain.fk(q))[:3]))
+    dt = 2e-3
+    for _ in range(int(12.0 / dt)):
+        cmd = ctrl.step(q, target=T, dt=dt)
+        assert np.all(cmd.q_next <= chain.upper + 1e-9) and np.all(cmd.q_next >= chain.lower - 1e-9)
+        q = cmd.q_next
+        if cmd.status in ("target-reached", "target-unreachable"):
+            break
+    assert cmd.status == "target-unreachable", cmd
+    assert cmd.position_error < 0.5 * e0
