@@ -570,6 +570,14 @@ class ResolvedRateController:
         elif self._has_a:
             enforcing = getattr(self.solver, "enforces_limits", False)
             held = None
+            if enforcing:
+                free = self._unboxed_solution(cyc, q, dt)
+                if free is None:
+                    return None
+                qd, speed = free, np.abs(free)
+                moving = speed > 0.0
+                if not moving.any():
+                    return None
             if not enforcing and self._has_p and self._near_position_limit(q, dt):
                 held = self._resolve_without_held_joints(cyc, q, dt)
                 if held is not None:
@@ -583,8 +591,7 @@ class ResolvedRateController:
             b = braking_speed_discrete(w, adt, 1.0 / (adt * dt), 1.0 / dt)
             r = r_brake = float(np.min(b[moving] / speed[moving]))
             qd_ref, qdd_ref = None, None
-            if not enforcing:
-                r, qd_ref = self._within_amax(cyc, qd, min(r, 1.0), dt, held)
+            r, qd_ref = self._within_amax(cyc, qd, min(r, 1.0), dt, held)
             if qd_ref is None:
                 if r >= 1.0:
                     return None
@@ -604,7 +611,7 @@ class ResolvedRateController:
                 cyc.reasons.append(f"approach to the target slowed to {r_brake:.3g}× its proportional "
                                    "speed to stop there within amax")
         if getattr(self.solver, "enforces_limits", False):
-            if qdd_ref is None:  # the braking law: the same twist, scaled
+            if qdd_ref is None:  # the law along the line: the same twist, scaled
                 cyc.xi = cyc.xi * r
                 halt = self._solve(cyc, q, dt, None)
             else:
@@ -622,6 +629,34 @@ class ResolvedRateController:
         cyc.xi = cyc.xi * r if qdd_ref is None else cyc.J @ qd_ref
         cyc.qd = cyc.approach_qd = qd_ref
         cyc.qdd_ff = qdd_ref
+        return None
+
+    def _unboxed_solution(self, cyc: _Cycle, q, dt) -> np.ndarray | None:
+        """A limit-enforcing solver's q̇ for the twist without its acceleration box (no
+        ``qd_prev``; velocity and position bounds stay): the direction the approach scales
+        along its line, or None if that solve fails (the boxed answer then stands).
+
+        From rest the box |q̇ − q̇_prev| ≤ amax·dt binds on a large turn, and the QP's least-
+        squares answer inside it does not keep the direction of ξ: a pure 90° turn moved a
+        UR5e's tool 286 mm off its position. Scaled along this direction by `_within_amax`,
+        the twist the QP then solves fits the box, as on the default path. Where the vmax
+        box binds, a smaller twist is solved and the answer scaled back (the QP is linear
+        in ξ while no bound binds)."""
+        scale = 1.0
+        for _ in range(6):
+            try:
+                res = self.solver.solve(cyc.J, cyc.xi * scale, limits=self.limits, q=q, qd_prev=None,
+                                        dt=dt)
+            except (RatectlError, np.linalg.LinAlgError):
+                return None
+            qd = np.array(res.qd, dtype=float)
+            if not _finite_sum(qd):
+                return None
+            if "velocity" not in res.limits_active:
+                return qd / scale
+            # the vmax box bound too (its least-squares answer leaves ξ's direction as well):
+            # solve a smaller twist, the uniform vmax scaling is `_within_amax`'s
+            scale *= 0.3 * float(np.min(self._vf / np.maximum(np.abs(qd), 1e-300)))
         return None
 
     def _resolve_without_held_joints(self, cyc: _Cycle, q, dt) -> np.ndarray | None:
