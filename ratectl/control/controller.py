@@ -665,8 +665,9 @@ class ResolvedRateController:
 
         A joint whose solver q̇ the position side of its velocity box (`_position_box`)
         would clip is held at that box value b_i; the others are solved again for the rest
-        of the twist, ξ − J_i b_i, with column i zeroed (up to n rounds, as the new solution
-        may push another joint into its limit). Without this the held joint's demand, which
+        of the twist, ξ − J_i b_i, with column i removed (up to n rounds, as the new solution
+        may push another joint into its limit; without limits: the controller's own stages
+        apply vmax, amax and the position box to the result). Without this the held joint's demand, which
         the clip never executes, throttled every other joint: the approach's amax factor
         along the line (≈ amax·dt/|q̇_i|, e.g. ×0.0115 on a Panda with joint 4 on its limit)
         and the uniform vmax scaling, so an arm whose target is out of reach crept toward it
@@ -677,21 +678,32 @@ class ResolvedRateController:
         if not held.any():
             return None
         J, xi = cyc.J, cyc.xi
+        res = cyc.res
         for _ in range(self._n):
             fixed = np.minimum(np.maximum(qd, lo), hi)
-            J_free = J.copy()
-            J_free[:, held] = 0.0
-            res = self.solver.solve(J_free, xi - J[:, held] @ fixed[held], limits=self.limits, q=q,
-                                    qd_prev=self._qd, dt=dt)
-            qd = np.array(res.qd, dtype=float)
+            qd = fixed.copy()
+            free = ~held
+            if not free.any():
+                break
+            try:  # (the controller's own stages then apply vmax, amax and the position box)
+                res = self.solver.solve(J[:, free], xi - J[:, held] @ fixed[held])
+            except (RatectlError, np.linalg.LinAlgError):
+                return None  # (e.g. a solver that raises near a singularity: the first answer stands)
+            qd[free] = res.qd
             if not _finite_sum(qd):
                 return None
-            qd[held] = fixed[held]
             more = ((qd > hi) | (qd < lo)) & ~held
             if not more.any():
                 break
             held |= more
-        cyc.qd = qd
+        # the status of this solve replaces the first one's (its vmax scaling may be gone)
+        cyc.qd, cyc.res, cyc.smin = qd, res, None
+        cyc.active = list(res.limits_active)
+        cyc.scale = float(res.velocity_scale)
+        if "velocity-scaled" in cyc.flags:
+            cyc.flags.remove("velocity-scaled")
+        if res.velocity_policy != "none":
+            cyc.flags.append("velocity-scaled")
         return held
 
     def _within_amax(self, cyc: _Cycle, qd, r, dt, held=None):
