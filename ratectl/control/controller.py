@@ -579,7 +579,7 @@ class ResolvedRateController:
                 if not moving.any():
                     return None
             if not enforcing and self._has_p and self._near_position_limit(q, dt):
-                held = self._resolve_without_held_joints(cyc, q, dt)
+                held = self._hold_joints_at_limits(cyc, q, dt)
                 if held is not None:
                     qd = cyc.qd
                     speed = np.abs(qd)
@@ -659,51 +659,34 @@ class ResolvedRateController:
             scale *= 0.3 * float(np.min(self._vf / np.maximum(np.abs(qd), 1e-300)))
         return None
 
-    def _resolve_without_held_joints(self, cyc: _Cycle, q, dt) -> np.ndarray | None:
-        """Joints the position box holds at a limit, taken out of the solve (no smoothing, a
-        solver that does not enforce limits): returns the mask of held joints, or None.
+    def _hold_joints_at_limits(self, cyc: _Cycle, q, dt) -> np.ndarray | None:
+        """Joints the position box holds at a limit (no smoothing, a solver that does not
+        enforce limits): clipped there now, and left out of what scales the others; returns
+        their mask, or None.
 
         A joint whose solver q̇ the position side of its velocity box (`_position_box`)
-        would clip is held at that box value b_i; the others are solved again for the rest
-        of the twist, ξ − J_i b_i, with column i removed (up to n rounds, as the new solution
-        may push another joint into its limit; without limits: the controller's own stages
-        apply vmax, amax and the position box to the result). Without this the held joint's demand, which
-        the clip never executes, throttled every other joint: the approach's amax factor
-        along the line (≈ amax·dt/|q̇_i|, e.g. ×0.0115 on a Panda with joint 4 on its limit)
-        and the uniform vmax scaling, so an arm whose target is out of reach crept toward it
-        for minutes instead of reaching its best effort and reporting ``target-unreachable``."""
+        clips is held at that box value. Its demand, which the clip never executes, scaled
+        every other joint: through the solver's own uniform vmax scaling (undone here: the
+        controller's `_limit_velocity` scales the clipped q̇ afterwards) and the approach's
+        amax factor along the line (``_within_amax`` skips held joints), ≈ amax·dt/|q̇_i|,
+        e.g. ×0.0115 on a Panda with joint 4 on its limit: an arm whose target is out of
+        reach crept toward it for minutes instead of stopping at its best effort and
+        reporting ``target-unreachable``. The others keep the solver's direction (a solve
+        without the held joint would chase the target with them: 63 mm off the path of a
+        Panda turn held by joint 7)."""
         hi, lo = self._position_box(q, dt)
         qd = cyc.qd
         held = (qd > hi) | (qd < lo)
         if not held.any():
             return None
-        J, xi = cyc.J, cyc.xi
-        res = cyc.res
-        for _ in range(self._n):
-            fixed = np.minimum(np.maximum(qd, lo), hi)
-            qd = fixed.copy()
-            free = ~held
-            if not free.any():
-                break
-            try:  # (the controller's own stages then apply vmax, amax and the position box)
-                res = self.solver.solve(J[:, free], xi - J[:, held] @ fixed[held])
-            except (RatectlError, np.linalg.LinAlgError):
-                return None  # (e.g. a solver that raises near a singularity: the first answer stands)
-            qd[free] = res.qd
-            if not _finite_sum(qd):
-                return None
-            more = ((qd > hi) | (qd < lo)) & ~held
-            if not more.any():
-                break
-            held |= more
-        # the status of this solve replaces the first one's (its vmax scaling may be gone)
-        cyc.qd, cyc.res, cyc.smin = qd, res, None
-        cyc.active = list(res.limits_active)
-        cyc.scale = float(res.velocity_scale)
+        scale = max(float(cyc.res.velocity_scale), 1e-300)
+        cyc.qd = np.minimum(np.maximum(qd / scale, lo), hi)
+        cyc.scale = 1.0
         if "velocity-scaled" in cyc.flags:
             cyc.flags.remove("velocity-scaled")
-        if res.velocity_policy != "none":
-            cyc.flags.append("velocity-scaled")
+        cyc.flags.insert(0, "joint-limit")
+        cyc.reasons.insert(0, f"joint(s) {np.flatnonzero(held).tolist()} held at a position limit")
+        cyc.active.append("position")
         return held
 
     def _within_amax(self, cyc: _Cycle, qd, r, dt, held=None):
@@ -947,6 +930,8 @@ class ResolvedRateController:
         if changed.any():
             joints = np.flatnonzero(changed)
             cyc.qd = clipped
+            if "joint-limit" in cyc.flags:  # (the approach held some already: one status)
+                cyc.flags.remove("joint-limit")
             cyc.flags.insert(0, "joint-limit")
             cyc.reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
             cyc.active.append("position")
