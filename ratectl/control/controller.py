@@ -584,17 +584,36 @@ class ResolvedRateController:
             r, qd_ref, qdd_ref = plan
             r_brake = r
         elif self._has_a:
+            enforcing = getattr(self.solver, "enforces_limits", False)
+            held = None
+            if enforcing:
+                free = self._unboxed_solution(cyc, q, dt)
+                if free is None:
+                    return None
+                qd, speed = free, np.abs(free)
+                moving = speed > 0.0
+                if not moving.any():
+                    return None
+            if not enforcing and self._has_p and self._near_position_limit(q, dt):
+                held = self._hold_joints_at_limits(cyc, q, dt)
+                if held is not None:
+                    qd = cyc.qd
+                    speed = np.abs(qd)
+                    moving = (speed > 0.0) & ~held
+                    if not moving.any():
+                        return None
             w = speed * self._inv_kmax
             adt = self._amax_f * (_APPROACH_ETA * dt)
             b = braking_speed_discrete(w, adt, 1.0 / (adt * dt), 1.0 / dt)
             r = r_brake = float(np.min(b[moving] / speed[moving]))
             qd_ref, qdd_ref = None, None
-            if not getattr(self.solver, "enforces_limits", False):
-                r, qd_ref = self._within_amax(cyc, qd, min(r, 1.0), dt)
+            r, qd_ref = self._within_amax(cyc, qd, min(r, 1.0), dt, held)
             if qd_ref is None:
                 if r >= 1.0:
                     return None
                 qd_ref = qd * r
+                if held is not None:
+                    qd_ref[held] = qd[held]
         else:
             return None
         cyc.approach = max(r, 0.0)
@@ -608,7 +627,7 @@ class ResolvedRateController:
                 cyc.reasons.append(f"approach to the target slowed to {r_brake:.3g}× its proportional "
                                    "speed to stop there within amax")
         if getattr(self.solver, "enforces_limits", False):
-            if qdd_ref is None:  # the braking law: the same twist, scaled
+            if qdd_ref is None:  # the law along the line: the same twist, scaled
                 cyc.xi = cyc.xi * r
                 halt = self._solve(cyc, q, dt, None)
             else:
@@ -628,7 +647,65 @@ class ResolvedRateController:
         cyc.qdd_ff = qdd_ref
         return None
 
-    def _within_amax(self, cyc: _Cycle, qd, r, dt):
+    def _unboxed_solution(self, cyc: _Cycle, q, dt) -> np.ndarray | None:
+        """A limit-enforcing solver's q̇ for the twist without its acceleration box (no
+        ``qd_prev``; velocity and position bounds stay): the direction the approach scales
+        along its line, or None if that solve fails (the boxed answer then stands).
+
+        From rest the box |q̇ − q̇_prev| ≤ amax·dt binds on a large turn, and the QP's least-
+        squares answer inside it does not keep the direction of ξ: a pure 90° turn moved a
+        UR5e's tool 286 mm off its position. Scaled along this direction by `_within_amax`,
+        the twist the QP then solves fits the box, as on the default path. Where the vmax
+        box binds, a smaller twist is solved and the answer scaled back (the QP is linear
+        in ξ while no bound binds)."""
+        scale = 1.0
+        for _ in range(6):
+            try:
+                res = self.solver.solve(cyc.J, cyc.xi * scale, limits=self.limits, q=q, qd_prev=None,
+                                        dt=dt)
+            except (RatectlError, np.linalg.LinAlgError):
+                return None
+            qd = np.array(res.qd, dtype=float)
+            if not _finite_sum(qd):
+                return None
+            if "velocity" not in res.limits_active:
+                return qd / scale
+            # the vmax box bound too (its least-squares answer leaves ξ's direction as well):
+            # solve a smaller twist, the uniform vmax scaling is `_within_amax`'s
+            scale *= 0.3 * float(np.min(self._vf / np.maximum(np.abs(qd), 1e-300)))
+        return None
+
+    def _hold_joints_at_limits(self, cyc: _Cycle, q, dt) -> np.ndarray | None:
+        """Joints the position box holds at a limit (no smoothing, a solver that does not
+        enforce limits): clipped there now, and left out of what scales the others; returns
+        their mask, or None.
+
+        A joint whose solver q̇ the position side of its velocity box (`_position_box`)
+        clips is held at that box value. Its demand, which the clip never executes, scaled
+        every other joint: through the solver's own uniform vmax scaling (undone here: the
+        controller's `_limit_velocity` scales the clipped q̇ afterwards) and the approach's
+        amax factor along the line (``_within_amax`` skips held joints), ≈ amax·dt/|q̇_i|,
+        e.g. ×0.0115 on a Panda with joint 4 on its limit: an arm whose target is out of
+        reach crept toward it for minutes instead of stopping at its best effort and
+        reporting ``target-unreachable``. The others keep the solver's direction (a solve
+        without the held joint would chase the target with them: 63 mm off the path of a
+        Panda turn held by joint 7)."""
+        hi, lo = self._position_box(q, dt)
+        qd = cyc.qd
+        held = (qd > hi) | (qd < lo)
+        if not held.any():
+            return None
+        scale = max(float(cyc.res.velocity_scale), 1e-300)
+        cyc.qd = np.minimum(np.maximum(qd / scale, lo), hi)
+        cyc.scale = 1.0
+        if "velocity-scaled" in cyc.flags:
+            cyc.flags.remove("velocity-scaled")
+        cyc.flags.insert(0, "joint-limit")
+        cyc.reasons.insert(0, f"joint(s) {np.flatnonzero(held).tolist()} held at a position limit")
+        cyc.active.append("position")
+        return held
+
+    def _within_amax(self, cyc: _Cycle, qd, r, dt, held=None):
         """The approach's q̇ within amax of the previous one, as close to the straight tool
         approach as amax allows: returns (r, q̇) or (r, None) to leave it to the limits.
 
@@ -645,9 +722,11 @@ class ResolvedRateController:
         lo = -math.inf
         r_v = hi = math.inf
         fits = True
-        for v, p, a, vm in zip(qd.tolist(), self._qd.tolist(), self._amax_f.tolist(), self._vf.tolist(),
-                               strict=True):
+        for i, (v, p, a, vm) in enumerate(zip(qd.tolist(), self._qd.tolist(), self._amax_f.tolist(),
+                                              self._vf.tolist(), strict=True)):
             room = a * c
+            if held is not None and held[i]:
+                continue  # a joint held at its limit keeps its position-box value (not scaled)
             if v == 0.0:
                 fits = fits and abs(p) <= room  # a joint the line does not move must stop in time
                 continue
@@ -666,15 +745,22 @@ class ResolvedRateController:
             cyc.reasons.append(f"approach speed {r_line:.3g}× its proportional speed, changed within "
                                "amax along the straight line to the target")
             cyc.active.append("acceleration")
-            return r_line, qd * r_line
+            qd_line = qd * r_line
+            if held is not None:
+                qd_line[held] = qd[held]
+            return r_line, qd_line
         # no factor fits: the least demanding one up to `want`, each joint toward it within amax
         prev = self._qd
         adt = self._amax_f * c
         inv = 1.0 / adt
         grid = np.linspace(0.0, want, 33)
-        need = np.max(np.abs(np.outer(grid, qd) - prev) * inv, axis=1)
+        free = slice(None) if held is None else ~held
+        need = np.max((np.abs(np.outer(grid, qd) - prev) * inv)[:, free], axis=1, initial=0.0)
         r_best = float(grid[int(np.argmin(need))])
-        qd_new = prev + np.minimum(np.maximum(qd * r_best - prev, -adt), adt)
+        goal = qd * r_best
+        if held is not None:
+            goal[held] = qd[held]
+        qd_new = prev + np.minimum(np.maximum(goal - prev, -adt), adt)
         cyc.flags.append("acceleration-limited")
         cyc.reasons.append(f"approach turned faster than amax allows: each joint changes toward "
                            f"{r_best:.3g}× the proportional speed within its own amax")
@@ -860,6 +946,8 @@ class ResolvedRateController:
         if changed.any():
             joints = np.flatnonzero(changed)
             cyc.qd = clipped
+            if "joint-limit" in cyc.flags:  # (the approach held some already: one status)
+                cyc.flags.remove("joint-limit")
             cyc.flags.insert(0, "joint-limit")
             cyc.reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
             cyc.active.append("position")

@@ -342,3 +342,81 @@ def test_the_approach_keeps_the_tool_on_its_line_within_amax():
         d = chain.fk(q)[:3, 3] - p0
         worst = max(worst, float(np.linalg.norm(d - (d @ u) * u)))
     assert worst < 0.015, f"the tool left its line by {worst * 1e3:.1f} mm"
+
+
+def test_without_smoothing_a_joint_held_at_its_limit_does_not_throttle_the_others():
+    """Panda, default solver, no smoothing, a target beyond what joint 4's range allows:
+    the joint clipped at its limit held the approach's amax factor along the line at
+    ≈ amax·dt/|q̇_4| (×0.0115), and the solver's own vmax scaling of its demand, on every
+    other joint: after 6 s the arm crept at 4 mm/s, 177 mm / 31° from the target, still
+    'joint-limit'. The held joint is now left out of both."""
+    chain = rc.robots.panda()
+    q = np.array([-2.29717734, -1.25222334, 0.52003147, -2.7718, -0.52858444, 1.07075312, 0.88980891])
+    T = np.array([[-0.50014831, -0.72925931, -0.46693953, -0.19726279],
+                  [-0.86478032, 0.39274595, 0.31289872, -0.09463792],
+                  [-0.04479569, 0.56029588, -0.82708033, 0.25749457],
+                  [0.0, 0.0, 0.0, 1.0]])
+    ctrl = rc.ResolvedRateController(chain)
+    dt = 2e-3
+    for _ in range(int(6.0 / dt)):
+        cmd = ctrl.step(q, target=T, dt=dt)
+        assert np.all(cmd.q_next <= chain.upper + 1e-9) and np.all(cmd.q_next >= chain.lower - 1e-9)
+        q = cmd.q_next
+    assert cmd.position_error < 0.135 and cmd.orientation_error < math.radians(16), cmd
+
+
+@pytest.mark.parametrize(("name", "q0", "T"), [
+    ("panda", [1.187109254649457, 1.4628, 0.9599184683497546, -2.671345942134017,
+               -0.012356412078269319, 1.843446774014553, 0.0013106768002426605],
+     [[-0.46884542359486125, 0.8042067233425071, 0.36528826275266946, -0.7389984102232856],
+      [-0.5437780954362204, 0.06309933130002628, -0.8368535459166355, 0.4000582063491439],
+      [-0.6960526931906175, -0.5909907110269985, 0.40772616764427877, -0.9597244566278063],
+      [0.0, 0.0, 0.0, 1.0]]),
+    ("stanford", [-0.6984943643996875, 1.4210628314660445, 0.6048, 2.4629990135562583,
+                  0.22057627141470526, 1.9005074042362553],
+     [[0.053461150039787235, -0.44193670513679284, 0.8954517597778557, 0.13234021686546282],
+      [-0.11746958800414581, -0.8932910817898301, -0.43385704914048756, -0.3914455704005051],
+      [0.9916364259800865, -0.08199385249877304, -0.09967049122909864, 1.8464847235097512],
+      [0.0, 0.0, 0.0, 1.0]]),
+])
+def test_without_smoothing_the_loop_ends_on_a_target_far_out_of_reach(name, q0, T):
+    """Targets 1–1.5 m beyond reach, default solver, no smoothing: with a joint held at its
+    limit the arm was still moving ('joint-limit') after 15 s, so the documented loop never
+    ended; it now stops at a best effort and says 'target-unreachable'."""
+    chain = rc.robots.BUILTIN[name]()
+    q = np.array(q0)
+    ctrl = rc.ResolvedRateController(chain)
+    dt = 2e-3
+    for _ in range(int(8.0 / dt)):
+        cmd = ctrl.step(q, target=np.array(T), dt=dt)
+        q = cmd.q_next
+        if cmd.status in ("target-reached", "target-unreachable"):
+            break
+    assert cmd.status == "target-unreachable" and "best effort" in cmd.reason, cmd
+
+
+@pytest.mark.parametrize(("name", "q0"), [
+    ("ur5e", [0.3, -1.3, 1.6, -1.9, -1.2, 0.2]),
+    ("puma560", [0.2, -0.6, 0.3, 0.4, 0.8, 0.5]),
+    ("iiwa7", [0.3, 0.5, 0.2, -1.2, 0.3, 0.9, 0.2]),
+])
+def test_qp_without_smoothing_turns_the_tool_in_place(name, q0):
+    """A pure 90° turn (position unchanged) with the QP and no smoothing: from rest its
+    acceleration and vmax boxes bound, and their least-squares answer left the direction of
+    ξ: the tool swung 286 mm (UR5e), 227 mm (PUMA), 108 mm (iiwa7) off its position, where
+    the default solver stays within 1.2 mm. The approach now scales along the QP's answer
+    without those boxes, as the default path does."""
+    chain = rc.robots.BUILTIN[name]()
+    q = np.array(q0)
+    T = chain.fk(q)
+    T[:3, :3] = _rot([1.0, 1.0, 0.0], math.radians(90)) @ T[:3, :3]
+    ctrl = rc.ResolvedRateController(chain, solver=rc.solvers.QP())
+    excursion = 0.0
+    for _ in range(4000):
+        cmd = ctrl.step(q, target=T, dt=1e-3)
+        q = cmd.q_next
+        excursion = max(excursion, cmd.position_error)
+        if cmd.status in ("target-reached", "target-unreachable"):
+            break
+    assert cmd.status == "target-reached", cmd
+    assert excursion < 0.008, excursion
