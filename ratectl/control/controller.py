@@ -1163,8 +1163,13 @@ class ResolvedRateController:
         if qdd_ref is not None:
             travel = v * dt + 0.5 * a * dt * dt + (qdd_ref - a) * (dt * dt / 6.0)
             slack = Jm * dt**3  # more than any other one-period motion to the same state travels
-            fits = ((stopping_distance(qd, qdd_ref, A, Jm) < room_up - travel - slack)
-                    & (stopping_distance(-qd, -qdd_ref, A, Jm) < room_lo + travel - slack))
+            # the exact stop of a reference that is already braking (counting its deceleration
+            # as 0 over-estimates the stop: a plan braking onto a goal at the limit was cut off
+            # and the other joints ran ahead of the line)
+            fits = ((stopping_distance(qd, qdd_ref, A, Jm, exact_when_braking=True)
+                     < room_up - travel - slack)
+                    & (stopping_distance(-qd, -qdd_ref, A, Jm, exact_when_braking=True)
+                       < room_lo + travel - slack))
             hi_v = np.where(fits, np.inf, hi_v)
             lo_v = np.where(fits, -np.inf, lo_v)
             stop_up = stop_up & ~fits
