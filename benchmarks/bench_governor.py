@@ -42,7 +42,7 @@ from ratectl.singularity import analyze
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "planning"))
 
-from singular_paths import crossing_line, followable  # noqa: E402
+from singular_paths import crossing_line, followable, full_reach_line  # noqa: E402
 
 DT = 2e-3
 
@@ -148,18 +148,6 @@ def reach_line(arm_name, q_end, elbow, *, length=0.1):
     return make
 
 
-def singular_end():
-    arm = rc.robots.ur5e()
-    q_end = np.array([0.3, -0.8, 0.0, -0.8, 1.4, 0.2])  # elbow straight: full reach
-    T_end = arm.fk(q_end)
-    d = T_end[:3, 3] - arm.frames(q_end)[1][:3, 3]
-    d /= np.linalg.norm(d)
-    T_start = T_end.copy()
-    T_start[:3, 3] -= 0.1 * d
-    res = rc.ik(arm, T_start, np.array([0.27, -1.28, 1.0, -1.33, 1.4, 0.23]))
-    return arm, rc.paths.Line(T_start, T_end, speed=0.2, acceleration=1.0), np.array(res.q)
-
-
 def waypoints(arm_name, q0, steps, *, blend=0.03, speed=0.15, acceleration=0.8, turn=0.4):
     def make():
         arm = rc.robots.BUILTIN[arm_name]()
@@ -203,7 +191,7 @@ def cases():
     out["iiwa7 line to near full reach"] = reach_line("iiwa7", [0.2, 0.5, 0.1, -0.03, 0.3, 0.6, 0.1], 3)
     out["panda line past a straight elbow"] = wrist_near("panda", [0.1, -0.3, 0.1, -0.08, 0.2, 1.0, 0.5],
                                                          half=0.06)
-    out["ur5e singular end (full reach)"] = singular_end
+    out["ur5e singular end (full reach)"] = full_reach_line
     out["iiwa7 waypoints, 3 cm blends"] = waypoints(
         "iiwa7", [0.0, 0.6, 0.0, -1.2, 0.0, 0.9, 0.0], ([0.1, 0, 0], [0.0, 0.1, -0.05], [-0.1, 0.0, 0.1]))
     out["ur5e waypoints, 3 cm blends"] = waypoints(

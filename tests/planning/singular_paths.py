@@ -51,3 +51,19 @@ def crossing_line(arm, q_star, qd_star, *, half=0.12, speed=0.25, acceleration=1
         Ta[:3, 3] -= 2 * side * offset * u / np.linalg.norm(u)
         Tb[:3, 3] -= 2 * side * offset * u / np.linalg.norm(u)
     raise RuntimeError(f"the crossing line of {arm.name} is not followable: {res}")
+
+
+def full_reach_line(*, beyond: float = 0.0):
+    """(arm, line, q0): a 0.1 m UR5e line that ends at full reach, the elbow straight (an
+    exact boundary singularity at its end), from a regular start q0 found by IK; with
+    ``beyond`` > 0 [m] the line continues that far past full reach (out of the reachable set)."""
+    arm = rc.robots.ur5e()
+    q_end = np.array([0.3, -0.8, 0.0, -0.8, 1.4, 0.2])  # elbow straight: full reach
+    T_end = arm.fk(q_end)
+    d = T_end[:3, 3] - arm.frames(q_end)[1][:3, 3]
+    d /= np.linalg.norm(d)
+    T_start, T_stop = T_end.copy(), T_end.copy()
+    T_start[:3, 3] -= 0.1 * d
+    T_stop[:3, 3] += beyond * d
+    q0 = np.array(rc.ik(arm, T_start, np.array([0.27, -1.28, 1.0, -1.33, 1.4, 0.23])).q)
+    return arm, rc.paths.Line(T_start, T_stop, speed=0.2, acceleration=1.0), q0

@@ -6,7 +6,7 @@ import pickle
 
 import numpy as np
 import pytest
-from singular_paths import UR5E_WRIST_Q, UR5E_WRIST_QD, crossing_line
+from singular_paths import UR5E_WRIST_Q, UR5E_WRIST_QD, crossing_line, full_reach_line
 
 import ratectl as rc
 from ratectl.planning import Governor, GovernorPlan, joint_path
@@ -54,15 +54,7 @@ def test_plan_is_immutable(wrist_plan):
 def test_singular_end_margins_are_lowered_only_locally():
     """A line that ends at full reach: the plan reaches within 0.1 mm of the end and is as fast
     as the time-optimal profile at the default margins, to 10 %."""
-    arm = rc.robots.ur5e()
-    q_end = np.array([0.3, -0.8, 0.0, -0.8, 1.4, 0.2])
-    T_end = arm.fk(q_end)
-    d = T_end[:3, 3] - arm.frames(q_end)[1][:3, 3]
-    d /= np.linalg.norm(d)
-    Ta = T_end.copy()
-    Ta[:3, 3] -= 0.1 * d
-    q0 = np.array(rc.ik(arm, Ta, np.array([0.27, -1.28, 1.0, -1.33, 1.4, 0.23])).q)
-    line = rc.paths.Line(Ta, T_end, speed=0.2, acceleration=1.0)
+    arm, line, q0 = full_reach_line()
     plan = Governor().plan(arm, line, q0, dt=DT)
     assert plan.complete and plan.within_limits, plan.message
     assert plan.joint_path.singular_end and "singular pose" in plan.message

@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from singular_paths import full_reach_line
 
 import ratectl as rc
 from ratectl.planning import JointPath, joint_path
@@ -50,30 +51,16 @@ def test_tangent_outside_the_range_stops_with_the_reason():
 
 
 def test_line_beyond_full_reach_stops_at_the_boundary():
-    arm = rc.robots.ur5e()
-    q_end = np.array([0.3, -0.8, 0.0, -0.8, 1.4, 0.2])
-    T_end = arm.fk(q_end)
-    d = T_end[:3, 3] - arm.frames(q_end)[1][:3, 3]
-    d /= np.linalg.norm(d)
-    Ta, Tb = T_end.copy(), T_end.copy()
-    Ta[:3, 3] -= 0.1 * d
-    Tb[:3, 3] += 0.02 * d
-    res = rc.ik(arm, Ta, np.array([0.27, -1.28, 1.0, -1.33, 1.4, 0.23]))
-    jp = joint_path(arm, rc.paths.Line(Ta, Tb, speed=0.2, acceleration=1.0), np.array(res.q))
+    arm, line, q0 = full_reach_line(beyond=0.02)
+    jp = joint_path(arm, line, q0)
     assert not jp.complete and "leaves the reachable set" in jp.message and "elbow" in jp.message
     assert abs(jp.s[-1] - 0.1) < 1e-3  # stopped at full reach
 
 
 def test_path_ending_at_full_reach_is_integrated_to_the_end():
-    arm = rc.robots.ur5e()
-    q_end = np.array([0.3, -0.8, 0.0, -0.8, 1.4, 0.2])
-    T_end = arm.fk(q_end)
-    d = T_end[:3, 3] - arm.frames(q_end)[1][:3, 3]
-    d /= np.linalg.norm(d)
-    Ta = T_end.copy()
-    Ta[:3, 3] -= 0.1 * d
-    res = rc.ik(arm, Ta, np.array([0.27, -1.28, 1.0, -1.33, 1.4, 0.23]))
-    jp = joint_path(arm, rc.paths.Line(Ta, T_end, speed=0.2, acceleration=1.0), np.array(res.q))
+    arm, line, q0 = full_reach_line()
+    T_end = line.end
+    jp = joint_path(arm, line, q0)
     assert jp.complete and jp.s[-1] == pytest.approx(0.1)
     assert np.linalg.norm(arm.fk(jp.q[-1])[:3, 3] - T_end[:3, 3]) < 1e-7
     assert np.max(np.abs(jp.dq[-1])) > 1e3  # q′ grows without bound at the singular end
