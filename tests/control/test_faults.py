@@ -2,6 +2,7 @@
 a non-finite measurement, acceleration feed-forward at the velocity limit."""
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -73,6 +74,34 @@ def test_a_halt_on_a_nan_measurement_keeps_the_commanded_stream_continuous(ur5e,
     acc = np.diff(np.array(qs), 2, axis=0) / 1e-6
     assert np.max(np.abs(acc) / ur5e.amax) <= 1.0 + 1e-6
     assert cmd.status == "halted" and np.all(np.abs(cmd.qd) < 1e-9)
+
+
+def test_a_smoothed_halt_mid_approach_stops_each_joint_time_optimally():
+    """URDF arm (no amax in the file, given with_limits), servoing to a step target with
+    smoothing; a NaN measurement mid-approach. Each joint stops on its own jerk-limited stop:
+    its speed grows at most by a²/(2·jmax) while its acceleration ramps out (never stretched
+    to the other joints), |q̈| ≤ amax, and the arm comes to rest."""
+    path = os.path.join(os.path.dirname(__file__), "..", "data", "irb_like.urdf")
+    arm = rc.Chain.from_urdf(path).with_limits(amax=10.0, jmax=100.0)
+    q0 = np.array([0.2, 0.3, -0.2, 0.1, 0.6, 0.1])
+    target = arm.fk(q0)
+    target[:3, 3] += [0.04, -0.03, 0.02]
+    ctrl = rc.ResolvedRateController(arm, smoothing=True)
+    q, qds = q0.copy(), []
+    for k in range(200):
+        meas = q.copy()
+        if k == 50:
+            meas[1] = math.nan
+            v0, a0 = np.array(ctrl._qd), np.array(ctrl._qdd)
+        cmd = ctrl.step(meas, target=target, dt=2e-3)
+        qds.append(np.array(cmd.qd))
+        q = np.array(cmd.q_next)
+    qd = np.array(qds)
+    assert np.max(np.abs(v0)) > 0.1  # it was moving
+    ramp = np.where(a0 * v0 > 0.0, a0**2 / (2.0 * arm.jmax), 0.0)
+    assert np.all(np.abs(qd[50:]).max(axis=0) <= np.abs(v0) + ramp + 1e-9)
+    assert np.max(np.abs(np.diff(qd, axis=0)) / (2e-3 * arm.amax)) <= 1.0 + 1e-9
+    assert cmd.status == "halted" and np.all(np.abs(cmd.qd) < 1e-9) and np.all(np.isfinite(q))
 
 
 def test_smoothing_with_acceleration_feed_forward_at_the_velocity_limit(ur5e):
