@@ -29,8 +29,12 @@ STATUSES = (
                              # at rest (the command's tool speed within K·tolerance)
     "target-unreachable",    # servoing to a target: at rest outside the tolerances, a best
                              # effort (no motion within the limits lowers the error from here)
+    "halted-singularity",    # jogging or approaching: stopped before a singularity that the
+                             # commanded direction runs into (moving away is free at once)
     "singular",              # the solver failed or needed more than vmax near a singularity
     "joint-limit",           # a joint position limit clipped q̇
+    "approaching-singularity",  # jogging or approaching: slowed along the commanded direction
+                                # to stop before a singularity
     "velocity-scaled",       # q̇ was scaled down uniformly to respect vmax
     "damped",                # the solver damped (near a singularity; see Command.kind)
     "acceleration-limited",  # the change of q̇ was scaled to respect amax
@@ -137,7 +141,8 @@ _OWNED = _ARRAYS[:-1]
 _F64 = np.dtype(np.float64)
 
 
-def make_command(fields: dict[str, Any], chain: Chain | None = None, q: ArrayLike | None = None) -> Command:
+def make_command(fields: dict[str, Any], chain: Chain | None = None, q: ArrayLike | None = None, *,
+                 kind: str | None = None) -> Command:
     """A `Command` from ``fields`` (a dict of its field values that the caller made for it
     and keeps no reference to) and the controller's freshly computed arrays, which it owns
     (``qd``, ``q_next``, ``qdd``, ``error``, ``twist`` are made read-only in place, not
@@ -145,7 +150,7 @@ def make_command(fields: dict[str, Any], chain: Chain | None = None, q: ArrayLik
     cycle (the dataclass ``__init__`` costs ~4 µs, a call with the fields as keywords
     ~1 µs). ``sigma_min`` may be the cycle's `SolveResult`: its σ_min is then read on first
     access. ``chain`` and ``q`` (the cycle's configuration) are kept, outside the dataclass
-    fields, for the lazy `Command.kind`."""
+    fields, for the lazy `Command.kind` (or its value, ``kind``, when the cycle named it)."""
     cmd = _new(Command)
     f = fields
     for a in (f["qd"], f["q_next"], f["qdd"], f["error"], f["twist"]):  # _OWNED
@@ -155,6 +160,8 @@ def make_command(fields: dict[str, Any], chain: Chain | None = None, q: ArrayLik
         f["task_error"] = read_only(te)
     f["_chain"] = chain
     f["_q"] = q
+    if kind is not None:
+        f["kind"] = kind  # the cached_property's value
     _set_dict(cmd, "__dict__", f)  # the dict itself: no copy (the frozen class refuses setattr)
     return cmd
 

@@ -57,9 +57,12 @@ from ..model.limits import (
     speed_toward_limit,
     stopping_distance,
 )
+from ..singularity import analyze
 from ..spatial import pose_error_into, rigid_transform_defect
 from .command import _RANK, STATUSES, Command, make_command
 from .goal import JointGoal
+from .jog import Jog
+from .progress import ProgressLimits
 from .smoothing import ProgressProfile, VelocityFilter
 
 if TYPE_CHECKING:
@@ -72,6 +75,8 @@ _APPROACH_ETA = 0.5  # fraction of amax (and jmax) the approach to a target plan
 _BRAKE_KAPPA = 0.8  # the share of that the approach brakes with (headroom for a goal still moving)
 _URGENT_ETA = 0.6  # the share of amax a late stop may use
 _OFF_ETA = 0.3  # the share that brings the motion off the approach line to rest (sum < 1)
+_JOG_SHARE = 0.5  # share of amax (and jmax) a jog's progress may use itself
+_KIND_NEAR = 0.5  # the σ band in which `analyze` names the singularity a jog stops before
 _GOAL_STEPS = 10  # descent steps per cycle toward the joint goal until it is settled
 _BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
 _NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
@@ -133,7 +138,7 @@ class _Cycle:
     """The working state of one control cycle, passed from stage to stage."""
 
     __slots__ = ("J", "e", "ep", "eo", "xi", "target", "res", "qd", "qdd", "q_next", "flags", "reasons",
-                 "active", "scale", "smin", "braking", "approach", "qdd_ff", "approach_qd")
+                 "active", "scale", "smin", "braking", "approach", "qdd_ff", "approach_qd", "kind")
 
     J: np.ndarray
     e: np.ndarray
@@ -158,6 +163,7 @@ class _Cycle:
         self.approach = 1.0
         self.qdd_ff = None
         self.approach_qd = None
+        self.kind: str | None = None
         self.scale = 1.0
         self.smin = None  # σ_min of the solve, read on demand (`ResolvedRateController._sigma`)
 
@@ -192,7 +198,7 @@ class ResolvedRateController:
     def __init__(self, chain: Chain, *, solver: Solver | None = None, gain: float = 10.0,
                  limits: Limits | Chain | str | None = "chain", smoothing: bool = False,
                  position_tolerance: float = 1e-4, orientation_tolerance: float = 1e-3,
-                 timeout: float = 0.1, singular_sigma: float = 0.02) -> None:
+                 timeout: float = 0.1, singular_sigma: float = 0.02, stop_sigma: float | None = None) -> None:
 
         self.chain = chain
         self._n = n = chain.dof
@@ -278,6 +284,14 @@ class ResolvedRateController:
                                orientation_tolerance=self.orientation_tolerance)
         self.timeout = positive_number("timeout", timeout, allow_inf=True, unit="[s]")
         self.singular_sigma = positive_number("singular_sigma", singular_sigma, allow_zero=True)
+        if stop_sigma is None:  # where the solver starts to damp: a jog stops above it
+            stop_sigma = max(float(getattr(self.solver, "epsilon", 0.0) or 0.0), self.singular_sigma)
+        self.stop_sigma = positive_number("stop_sigma", stop_sigma, allow_zero=True)
+        jmax = self.filter.jmax if self.filter is not None else None  # jerk-limited only when smoothed
+        self._jog_limits = ProgressLimits(chain, self.limits, jmax=jmax, accel_share=_JOG_SHARE,
+                                        stop_sigma=self.stop_sigma,
+                                        watch_sigma=max(4.0 * self.stop_sigma, 1e-6))
+        self._jogger = Jog()
         self._e = np.zeros(6)
         self.reset()
 
@@ -308,6 +322,8 @@ class ResolvedRateController:
         self._q_next_last = None
         self._latched = ""
         self._goal.reset()
+        self._jogger.reset()
+        self._singular_kind: str | None = None
         self._dt_last = None
         self.time = 0.0
         if self.filter is not None:
@@ -329,7 +345,7 @@ class ResolvedRateController:
     # ------------------------------------------------------------------ the cycle
     def step(self, q: ArrayLike, *, target: ArrayLike | None = None, twist: ArrayLike | None = None,
              dt: float, qd_ff: ArrayLike | None = None, qdd_ff: ArrayLike | None = None,
-             stamp: float | None = None) -> Command:
+             stamp: float | None = None, frame: str = "base") -> Command:
         """One control cycle (see the module docstring): the stages
         `_validate` → `_halt_reason` → `_error` → `_solve` →
         `_limit` → `_smooth` → `_command`.
@@ -337,7 +353,9 @@ class ResolvedRateController:
         Args:
             q: measured joint positions (n,).
             target: desired tool pose T_des (4×4) or None (no feedback).
-            twist: feed-forward tool twist ξ_ff = [v; ω] (6,) [m/s; rad/s] or None.
+            twist: tool twist ξ = [v; ω] (6,) [m/s; rad/s] at the tool point, or None: alone (no
+                target, no ``qd_ff``), the twist to jog along (`Jog`: followed in its own
+                direction or slowed down along it, never rotated); with a target, a feed-forward.
             dt: control period [s].
             qd_ff: joint-velocity feed-forward (n,) added to the resolved rate (e.g. the
                 governor's planned q̇); ``twist`` is then the *extra* twist to resolve.
@@ -346,17 +364,30 @@ class ResolvedRateController:
                 planned motion without lag.
             stamp: when the target was produced, on the controller clock ``ctrl.time`` [s];
                 older than ``timeout`` → halt (stale target).
+            frame: the axes of ``twist``: ``"base"`` (default) or ``"tool"`` (the tool frame's
+                axes at the measured q; the twist is still taken at the tool point).
         """
-        return self._cycle(*self._validate(q, target, twist, dt, qd_ff, qdd_ff), stamp)
+        if frame != "base" and frame != "tool":
+            raise InputError(f"frame must be 'base' or 'tool', got {frame!r}", argument="frame", value=frame)
+        return self._cycle(*self._validate(q, target, twist, dt, qd_ff, qdd_ff), stamp, frame)
 
     def _cycle(self, q: np.ndarray, target: np.ndarray | None, twist: np.ndarray | None, dt: float,
-               qd_ff: np.ndarray | None, qdd_ff: np.ndarray | None, stamp: float | None) -> Command:
+               qd_ff: np.ndarray | None, qdd_ff: np.ndarray | None, stamp: float | None,
+               frame: str = "base") -> Command:
         """`step` after validation: the stages on float arrays."""
         halt = self._halt_reason(q, target, twist, dt, qd_ff, qdd_ff, stamp)
         if halt is not None:
             return halt
-        cyc = self._error(q, target, twist)
-        halt = self._solve(cyc, q, dt, qd_ff)
+        if frame == "tool" and twist is not None:  # tool axes → base axes: [R v; R ω]
+            R = self.chain.fk(q)[:3, :3]
+            twist = np.concatenate([R @ twist[:3], R @ twist[3:]])
+        if target is None and qd_ff is None and twist is not None:
+            cyc = _Cycle()
+            halt = self._jog(cyc, q, dt, twist)
+        else:
+            self._jogger.reset()
+            cyc = self._error(q, target, twist)
+            halt = self._solve(cyc, q, dt, qd_ff)
         if halt is not None:
             return halt
         servo = target is not None and qd_ff is None and (twist is None or not twist.any())
@@ -701,7 +732,7 @@ class ResolvedRateController:
         if "velocity-scaled" in cyc.flags:
             cyc.flags.remove("velocity-scaled")
         cyc.flags.insert(0, "joint-limit")
-        cyc.reasons.insert(0, f"joint(s) {np.flatnonzero(held).tolist()} held at a position limit")
+        cyc.reasons.insert(0, f"joint(s) {self._named(held)} held at a position limit")
         cyc.active.append("position")
         return held
 
@@ -853,6 +884,103 @@ class ResolvedRateController:
         b_off -= float(b_off @ u) * u
         return v1 / (K * x), v1 * u + w_off, a1 * u + b_off
 
+    # --- stage 3c: jogging along a twist
+    def _direction(self, J: np.ndarray, d: np.ndarray, q: np.ndarray, dt: float) -> Any:
+        """The solver's answer for the direction ``d`` (6,) without the joint limits (which
+        bound the progress instead): q̇ per unit of progress (``.qd``), with σ_min available
+        from the result. ``q`` and ``dt`` go to solvers that need them (extra rows)."""
+        return self.solver.solve(J, d, q=q, dt=dt)
+
+    def _sigma_ahead(self, q2: np.ndarray) -> tuple[None, float]:
+        """σ_min(J) at another configuration (the singularity look-ahead of `ProgressLimits`)."""
+        s = np.linalg.svd(self.chain.jacobian(q2), compute_uv=False)
+        return None, float(s[-1]) if s.shape[0] == 6 else 0.0
+
+    def _sigma_for_watch(self, res: Any) -> float | None:
+        """σ_min of a direction solve when it may be below the watch threshold, else None
+        (decided without computing σ_min when the result can)."""
+        at_least = getattr(res, "sigma_min_at_least", None)
+        if at_least is not None and at_least(self._jog_limits.watch_sigma):
+            return None
+        smin = float(res.sigma_min)
+        return smin if smin < self._jog_limits.watch_sigma else None
+
+    def _jog(self, cyc: _Cycle, q, dt, twist) -> Command | None:
+        """Jogging (`Jog`): q̇ = c·J⁺ξ with c ∈ [0, 1] within the joint limits mapped onto the
+        commanded direction (`ProgressLimits`): the tool moves along ξ or slows down along it,
+        never sideways."""
+        J = cyc.J = self.chain.jacobian(q)
+        cyc.e = shared_zeros(6)
+        cyc.ep = cyc.eo = 0.0
+        cyc.target = False
+        jog = self._jogger
+        if jog.twist is None and twist.any():  # a first twist: c from the arm's present motion
+            moving = J @ self._qd
+            jog.c = min(max(float(moving @ twist) / float(twist @ twist), 0.0), 1.0)
+        jog.start(twist)
+        if not twist.any():
+            jog.c = 0.0
+            cyc.xi = twist.copy()
+            return self._solve(cyc, q, dt, None)
+        try:
+            res_w = self._direction(J, twist, q, dt)
+        except SingularityError as err:
+            return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min)
+        except (RatectlError, np.linalg.LinAlgError) as err:
+            return self._halt(q, dt, f"solver failed: {err}")
+        w = np.array(res_w.qd, dtype=float)
+        if not _finite_sum(w):
+            return self._halt(q, dt, "solver returned a non-finite q̇")
+        wp = jog.w_prev
+        w_prime = (w - wp) / (jog.c * dt) if (wp is not None and jog.c > 0.0) else None
+        caps = self._jog_limits.caps(q, w, dt=dt, sigma=self._sigma_for_watch(res_w), w_prime=w_prime,
+                                   solve_direction=self._sigma_ahead)
+        c_prev = jog.c
+        c = jog.advance(caps, dt)
+        jog.w_prev = w
+        cyc.xi = twist * c
+        if getattr(self.solver, "enforces_limits", False):
+            halt = self._solve(cyc, q, dt, None)
+            if halt is not None:
+                return halt
+        else:
+            cyc.res = res_w
+            cyc.qd = w * c
+            cyc.active = []
+            cyc.scale = 1.0
+            cyc.smin = None
+        self._progress_flags(cyc, q, caps, c > 0.0, c >= caps.speed * (1.0 - 1e-9) and c < 1.0)
+        if c > c_prev and c < min(1.0, caps.speed) * (1.0 - 1e-12):
+            cyc.flags.append("acceleration-limited")
+            cyc.reasons.append(f"accelerating along the commanded twist within amax ({c:.3g}× the twist)")
+            cyc.active.append("acceleration")
+        if "velocity" in cyc.active or caps.binding == "velocity":
+            cyc.scale = c
+        return None
+
+    def _progress_flags(self, cyc: _Cycle, q, caps, moving: bool, at_bound: bool) -> None:
+        """Status flags and reasons of a progress bound (approach or jog)."""
+        if caps.binding == "singularity" and (at_bound or caps.blocked_by):
+            if caps.blocked_by and not moving:
+                cyc.flags.append("halted-singularity")
+            else:
+                cyc.flags.append("approaching-singularity")
+            kind = self._singular_kind
+            if kind is None:  # named once per encounter: `analyze` with a wide "near" band
+                kind = self._singular_kind = str(analyze(self.chain, q, near=_KIND_NEAR).kind)
+            cyc.kind = kind
+            cyc.reasons.append(caps.reason.replace("a singularity", f"a {kind} singularity", 1))
+            return
+        elif caps.binding == "position" and (at_bound or caps.blocked_by):
+            cyc.flags.append("joint-limit")
+            cyc.reasons.append(caps.reason)
+            cyc.active.append("position")
+        elif caps.binding in ("velocity", "curvature") and at_bound and moving:
+            cyc.flags.append("velocity-scaled")
+            cyc.active.append("velocity")
+            cyc.reasons.append(f"moving at the speed limit of joint {self._jog_limits.name(caps.joint)} "
+                               "along the commanded direction")
+
     # --- stage 4: the limits
     def _limit(self, cyc: _Cycle, q, dt) -> None:
         """Velocity, acceleration and position limits on ``cyc.qd`` (in that order; see the
@@ -949,7 +1077,7 @@ class ResolvedRateController:
             if "joint-limit" in cyc.flags:  # (the approach held some already: one status)
                 cyc.flags.remove("joint-limit")
             cyc.flags.insert(0, "joint-limit")
-            cyc.reasons.insert(0, f"joint(s) {joints.tolist()} held at a position limit")
+            cyc.reasons.insert(0, f"joint(s) {self._named(joints)} held at a position limit")
             cyc.active.append("position")
             if self.filter is None:  # (with smoothing the filter then keeps amax and jmax)
                 step = np.abs(clipped - self._qd) * self._inv_amax_f / dt
@@ -995,11 +1123,11 @@ class ResolvedRateController:
         cyc.flags.insert(0, "limit-recovery")
         if some_hard:
             assert hard is not None
-            cyc.reasons.insert(0, f"joint(s) {np.flatnonzero(hard).tolist()} measured within the "
+            cyc.reasons.insert(0, f"joint(s) {self._named(hard)} measured within the "
                                "stopping distance of a position limit (or beyond it): braking at "
                                f"{ratio:.3g}× amax to stay inside the range")
         if out.any():
-            cyc.reasons.insert(0, f"joint(s) {np.flatnonzero(out).tolist()} measured beyond a position "
+            cyc.reasons.insert(0, f"joint(s) {self._named(out)} measured beyond a position "
                                "limit: commanded back into the range, never further out")
 
     # --- stage 5: smoothing and integration
@@ -1066,8 +1194,9 @@ class ResolvedRateController:
         f.reset(qd, cyc.qdd)
         joints = np.flatnonzero(out).tolist()
         cyc.flags.insert(0, "limit-recovery")
-        cyc.reasons.insert(0, f"joint(s) {joints} measured inside their jerk-limited stopping distance "
-                           "of a position limit (or beyond it): smoothing overridden for one period, "
+        cyc.reasons.insert(0, f"joint(s) {self._named(joints)} measured inside their jerk-limited "
+                           "stopping distance of a position limit (or beyond it): smoothing overridden for "
+                           "one period, "
                            f"braking at {ratio:.3g}× amax to stay inside the range (never further out)")
         if "position" not in cyc.active:
             cyc.active.append("position")
@@ -1108,6 +1237,8 @@ class ResolvedRateController:
         self._q_last = q.copy()
         t0 = self.time
         self.time = t0 + dt
+        if cyc.kind is None:
+            self._singular_kind = None
         if cyc.flags:
             status = min(cyc.flags, key=_RANK.__getitem__)
             flags = tuple(dict.fromkeys(cyc.flags))
@@ -1123,7 +1254,7 @@ class ResolvedRateController:
                              "damping": float(res.damping), "task_error": res.task_error,
                              "velocity_scale": cyc.scale,
                              "limits_active": tuple(dict.fromkeys(active)) if active else (),
-                             "time": t0, "dt": dt, "solve": res}, self.chain, self._q_last)
+                             "time": t0, "dt": dt, "solve": res}, self.chain, self._q_last, kind=cyc.kind)
 
     def _jerk_limited_position_guard(self, q, qd, dt, flags, reasons, active, qdd_ref=None):
         """Keep a smoothed joint inside its position range: the Ruckig filter lags the
@@ -1183,12 +1314,19 @@ class ResolvedRateController:
                 if "joint-limit" not in flags:
                     flags.insert(0, "joint-limit")
                 moving = np.abs(v[joints]).max() > 1e-9
-                reasons.insert(0, f"joint(s) {joints} " + ("braking for a position limit (jerk-limited "
-                                                           "stop)" if moving else "held at a position limit"))
+                what = ("braking for a position limit (jerk-limited stop)" if moving
+                        else "held at a position limit")
+                reasons.insert(0, f"joint(s) {self._named(joints)} {what}")
                 active.append("position")
         else:
             clipped = qd  # unchanged: the same array (the approach's acceleration stays valid)
         return clipped, stop_up | stop_lo  # the braking joints stop time-optimally, on their own
+
+    def _named(self, joints) -> str:
+        """The chain's names of ``joints`` (a boolean mask or indices), for reasons."""
+        idx = np.flatnonzero(joints) if np.asarray(joints).dtype == bool else np.asarray(joints, dtype=int)
+        names = self.chain.joint_names
+        return ", ".join(repr(names[int(i)]) for i in np.ravel(idx))
 
     @staticmethod
     def _sigma(cyc: _Cycle) -> float:
@@ -1223,7 +1361,7 @@ class ResolvedRateController:
         joints = [i for i, held in enumerate(res.bound.tolist()) if held] if kinds else []
         if "position" in kinds:
             flags.insert(0, "joint-limit")
-            reasons.insert(0, f"QP: joint(s) {joints} held by a position limit")
+            reasons.insert(0, f"QP: joint(s) {self._named(joints)} held by a position limit")
         if "velocity" in kinds:
             smin = self._sigma(cyc)
             if smin < self.singular_sigma:
@@ -1232,10 +1370,10 @@ class ResolvedRateController:
                                f"{joints} at vmax")
             else:
                 flags.append("velocity-scaled")
-                reasons.append(f"QP: joint(s) {joints} at vmax")
+                reasons.append(f"QP: joint(s) {self._named(joints)} at vmax")
         if "acceleration" in kinds:
             flags.append("acceleration-limited")
-            reasons.append(f"QP: joint(s) {joints} at the acceleration bound")
+            reasons.append(f"QP: joint(s) {self._named(joints)} at the acceleration bound")
         extra = info.get("extra_active")
         if extra is not None and np.any(extra):
             reasons.append(f"{int(np.count_nonzero(extra))} extra constraint row(s) active "

@@ -84,13 +84,18 @@ def test_exact_inverse_at_a_singularity_halts_instead_of_raising(ur5e):
     cmd = ctrl.step(Q_WRIST, twist=np.array([0.05, 0, 0, 0, 0, 0]), dt=1e-3)
     assert cmd.status == "singular" and "singular" in cmd.reason
     assert np.all(np.abs(cmd.qd) <= np.abs(ctrl.qd) + 1e-12)  # decelerating, not blowing up
-    # close to (not at) the singularity the exact inverse needs more than vmax: reported
+    # close to (not at) the singularity the exact inverse needs joint speeds ∝ 1/σ: a jog
+    # along y (which does not lower σ_min here) stays within vmax and moves the tool along y only
     ctrl.reset()
     q = Q_WRIST.copy()
     q[4] = 2e-3
-    cmd = ctrl.step(q, twist=np.array([0.0, 0.1, 0.0, 0.0, 0.0, 0.0]), dt=1e-3)
-    assert cmd.status == "singular" and cmd.velocity_scale < 0.2
-    assert np.all(np.abs(cmd.qd) <= ur5e.vmax * (1 + 1e-12))
+    for _ in range(300):
+        cmd = ctrl.step(q, twist=np.array([0.0, 0.1, 0.0, 0.0, 0.0, 0.0]), dt=1e-3)
+        assert np.all(np.abs(cmd.qd) <= ur5e.vmax * (1 + 1e-12))
+        tool = ur5e.jacobian(q) @ cmd.qd
+        assert abs(tool[1]) > 0.0 and np.linalg.norm(np.delete(tool, 1)) <= 1e-9 * (1 + abs(tool[1]))
+        q = cmd.q_next
+    assert cmd.velocity_scale < 0.2
 
 
 def test_velocity_scaling_keeps_the_direction(ur5e):
@@ -126,20 +131,30 @@ def test_acceleration_limit_and_previous_velocity(ur5e):
 
 
 def test_joint_position_limit_holds(ur5e):
-    """Drive the elbow (±π limit) outwards: it stops at the limit, status joint-limit."""
+    """Jog the shoulder pan into its upper limit: the jog slows along its twist and stops
+    just inside the limit (status joint-limit, the joint named). (The elbow's ±π limit is a
+    folded, singular arm: a jog there stops before the singularity, halted-singularity.)"""
     ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.DLS(damping=0.01))
     q = Q_REG.copy()
-    q[2] = math.pi - 0.05
+    q[0] = ur5e.upper[0] - 0.05
     seen = False
     for _ in range(400):
         J = ur5e.jacobian(q)
-        xi = J @ np.array([0, 0, 1.0, 0, 0, 0])  # the twist that the elbow alone would make
+        xi = J @ np.array([1.0, 0, 0, 0, 0, 0])  # the twist that the shoulder pan alone would make
         cmd = ctrl.step(q, twist=xi, dt=2e-3)
         seen |= cmd.status == "joint-limit"
         q = cmd.q_next
-        assert q[2] <= ur5e.upper[2] + 1e-12
-    assert seen and "position" in cmd.limits_active
-    assert q[2] > math.pi - 1e-3
+        assert q[0] <= ur5e.upper[0] + 1e-12
+    assert seen and "position" in cmd.limits_active and "'shoulder_pan'" in cmd.reason
+    assert q[0] > ur5e.upper[0] - 2e-3
+    q2 = q.copy()
+    q2[2] = math.pi - 0.05  # the elbow toward its folded (singular) limit
+    ctrl.reset()
+    for _ in range(400):
+        cmd = ctrl.step(q2, twist=ur5e.jacobian(q2) @ np.array([0, 0, 1.0, 0, 0, 0]), dt=2e-3)
+        q2 = cmd.q_next
+        assert q2[2] <= ur5e.upper[2] + 1e-12
+    assert cmd.status == "halted-singularity" and cmd.kind in ("shoulder", "elbow", "boundary")
 
 
 def test_non_finite_input_halts_safely_and_latches(ur5e):

@@ -1,0 +1,219 @@
+"""How fast the arm may progress along a commanded direction: one mechanism for the servo's
+straight approach and for jogging.
+
+Both modes move the tool along a direction fixed in task space: the straight segment to a
+target, or the twist a teleoperator streams. With ``w = J⁺d`` the joint velocity per unit of
+progress along the direction ``d`` (6,), the joint motion is
+
+    q̇ = ṡ w,    q̈ = s̈ w + ṡ² w′    (w′ = dw/ds, the change of w along the way)
+
+so every joint limit becomes a bound on the scalar progress ``s``, and obeying it scales the
+motion along ``d`` without ever turning it. `ProgressLimits.caps` computes those bounds at the
+measured q, for the coming period:
+
+* **velocity**: ṡ ≤ minᵢ vmaxᵢ/|wᵢ|;
+* **acceleration**: s̈ within a share η of amax, minᵢ η·amaxᵢ/|wᵢ| (the rest, (1 − η)·amax,
+  is kept for the ṡ²w′ term: ṡ ≤ √((1 − η)·amaxᵢ/|w′ᵢ|)), and the jerk likewise;
+* **position limits**: joint i moving toward a limit at distance Dᵢ may move at most at the
+  speed from which it still stops there at η·amaxᵢ whatever the later periods are
+  (`braking_speed_any_dt`), so ṡ ≤ that speed/|wᵢ|;
+* **singularities**: σ_min(J) must not fall below ``stop_sigma`` while the motion lowers it.
+  Its rate along the direction, σ′ = dσ_min/ds, comes from a finite difference of σ_min one
+  small step ahead along w; the remaining progress before σ_min reaches ``stop_sigma`` is
+  estimated as Δs = (σ_min − stop)/(2|σ′|) (half the first-order estimate: σ_min falls like
+  √(distance) at a boundary singularity), and ṡ ≤ √(2·a_s·Δs) with a_s the acceleration
+  bound above. The arm therefore decelerates and stops *before* the lost direction, with
+  the direction of the tool motion unchanged, and moves away at once (σ′ > 0 is never
+  bounded).
+
+A cap of zero with the progress at rest means the direction is **blocked**: ``blocked_by``
+says by what ("singularity" or "position"), with the joint (by the chain's joint name) or
+σ_min, in ``reason``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..model.limits import Limits, braking_speed, braking_speed_any_dt
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+
+__all__ = ["ProgressCaps", "ProgressLimits"]
+
+_TINY_W = 1e-12  # a joint with |w_i| below this does not move along the direction
+_LIMIT_MARGIN = 1e-3  # [rad or m] a progress stops this far inside a joint's position limit
+_UNBOUNDED = 1e9  # an absent bound on the progress (Ruckig needs finite limits)
+
+
+@dataclass(slots=True)
+class ProgressCaps:
+    """Bounds on the progress ṡ along a direction for the coming period.
+
+    Attributes:
+        speed: largest admissible ṡ now [progress units/s] (0: stop).
+        accel: largest |s̈| [progress units/s²]; jerk: largest |s⃛| [progress units/s³].
+        binding: what sets ``speed`` ("velocity", "position", "singularity",
+            "curvature" or "" when nothing bounds it).
+        blocked_by: "position" or "singularity" when the bound is zero (the direction is
+            blocked where the arm is), else "".
+        joint: index of the binding joint (position and velocity bounds), or -1.
+        sigma: σ_min(J) at q (NaN when not computed: far from every singularity).
+        singular_speed: the singularity bound on ṡ (inf when it does not bind).
+        reason: a sentence for the command ("" when nothing binds).
+    """
+
+    speed: float
+    accel: float
+    jerk: float
+    binding: str = ""
+    blocked_by: str = ""
+    joint: int = -1
+    sigma: float = math.nan
+    singular_speed: float = math.inf
+    reason: str = ""
+
+
+class ProgressLimits:
+    """The joint limits of a chain as bounds on progress along a direction (see the module
+    docstring). Owns the limit arrays in the forms the cycle needs.
+
+    Args:
+        chain: the arm (its Jacobian is evaluated one small step ahead near singularities,
+            and its joint names appear in the reasons).
+        limits: the controller's `Limits` (None: no joint limits).
+        jmax: per-joint jerk limits (n,) or None (the progress jerk is then unbounded).
+        accel_share: η, the share of amax (and jmax) the progress may use itself.
+        stop_sigma: σ_min(J) at which motion that lowers σ_min must have stopped [units of σ].
+        watch_sigma: below this σ_min the singularity bound is evaluated (above it, never
+            binding and not computed).
+    """
+
+    def __init__(self, chain: Chain, limits: Limits | None, *, jmax: np.ndarray | None,
+                 accel_share: float, stop_sigma: float, watch_sigma: float) -> None:
+        self.chain = chain
+        self.names = chain.joint_names
+        n = chain.dof
+        self.accel_share = float(accel_share)
+        self.stop_sigma = float(stop_sigma)
+        self.watch_sigma = float(watch_sigma)
+        inf = np.full(n, np.inf)
+        lim = limits
+        self.vmax = lim.vmax if lim is not None else inf
+        self.amax = lim.amax if lim is not None else inf
+        self.lower = lim.lower if lim is not None else -inf
+        self.upper = lim.upper if lim is not None else inf
+        self.jmax = np.asarray(jmax, dtype=float) if jmax is not None else inf
+        self._has_p = bool(np.any(np.isfinite(self.lower) | np.isfinite(self.upper)))
+        share_a = self.accel_share * self.amax
+        self._share_a = share_a
+        # 2/a for the braking law at the share (a huge a for an absent limit: stop in one period)
+        self._two_over_a = np.where(np.isfinite(share_a), 2.0 / np.where(np.isfinite(share_a), share_a, 1.0),
+                                    0.0)
+        self._curv_a = (1.0 - self.accel_share) * self.amax
+        self._share_j = self.accel_share * self.jmax
+        # with jerk limits (a smoothed command) the stop toward a position limit is jerk-limited
+        fin_j = np.isfinite(self._share_j) & np.isfinite(share_a)
+        self._jerk_limited = ((np.where(fin_j, share_a, 1.0), np.where(fin_j, self._share_j, 1e300))
+                              if fin_j.any() else None)
+        self._jerk_slack = np.where(np.isfinite(self.vmax), self.vmax, 0.0)  # one period at vmax
+
+    def name(self, i: int) -> str:
+        """The chain's name of joint ``i`` (quoted), for reasons."""
+        return repr(self.names[i])
+
+    def caps(self, q: np.ndarray, w: np.ndarray, *, dt: float, sigma: float | None = None,
+             w_prime: np.ndarray | None = None, solve_direction=None) -> ProgressCaps:
+        """The bounds on ṡ, s̈, s⃛ at ``q`` for motion ``q̇ = ṡ w`` (ṡ ≥ 0).
+
+        Args:
+            q: measured joint positions (n,).
+            w: joint velocity per unit progress (n,).
+            dt: the coming period [s].
+            sigma: σ_min(J(q)) if known (else computed when needed).
+            w_prime: dw/ds (n,) if known (the curvature term), else None.
+            solve_direction: ``f(q) -> (w, σ_min)`` at another q, for the singularity look-ahead
+                (None: no singularity bound).
+        """
+        aw = np.abs(w)
+        moving = aw > _TINY_W
+        if not moving.any():
+            return ProgressCaps(speed=_UNBOUNDED, accel=_UNBOUNDED, jerk=_UNBOUNDED)
+        inv = np.where(moving, 1.0 / np.where(moving, aw, 1.0), 0.0)
+        # velocity (np.where before the product: an absent limit is inf, and inf·0 is NaN)
+        v_each = np.where(moving, np.where(moving, self.vmax, 0.0) * inv, np.inf)
+        jv = int(np.argmin(v_each))
+        speed = float(v_each[jv])
+        binding, joint = ("velocity", jv) if math.isfinite(speed) else ("", -1)
+        accel = float(np.min(np.where(moving, np.where(moving, self._share_a, 0.0) * inv, np.inf)))
+        jerk = float(np.min(np.where(moving, np.where(moving, self._share_j, 0.0) * inv, np.inf)))
+        if w_prime is not None:
+            awp = np.abs(w_prime)
+            bent = awp > _TINY_W
+            if bent.any():
+                c_each = np.where(bent, np.sqrt(np.where(bent, self._curv_a, 0.0) / np.where(bent, awp, 1.0)),
+                                  np.inf)
+                jc = int(np.argmin(c_each))
+                if c_each[jc] < speed:
+                    speed, binding, joint = float(c_each[jc]), "curvature", jc
+        blocked_by = ""
+        reason = ""
+        # position limits: joints moving toward a limit brake in time at the share of amax
+        if self._has_p:
+            # (stopping _LIMIT_MARGIN short: the feedback that holds the arm on the stopped
+            # reference then never presses a joint onto its limit)
+            room = np.where(w > 0.0, self.upper - q, q - self.lower) - _LIMIT_MARGIN
+            finite = moving & np.isfinite(room)
+            room_f = np.where(finite, room, 0.0)
+            b = braking_speed_any_dt(room_f, dt, self._two_over_a)
+            if self._jerk_limited is not None:  # and the jerk-limited stop fits as well
+                share_a, share_j = self._jerk_limited
+                b = np.minimum(b, braking_speed(np.maximum(room_f - self._jerk_slack * dt, 0.0), share_a,
+                                                share_j))
+            p_each = np.where(finite, np.maximum(b, 0.0) * inv, np.inf)
+            jp = int(np.argmin(p_each))
+            if p_each[jp] < speed:
+                speed, binding, joint = float(p_each[jp]), "position", jp
+                side = "upper" if w[jp] > 0.0 else "lower"
+                if speed <= 0.0:
+                    blocked_by = "position"
+                    reason = f"joint {self.name(jp)} is at its {side} limit"
+                else:
+                    reason = f"joint {self.name(jp)} braking toward its {side} limit"
+        caps = ProgressCaps(speed=speed, accel=min(accel, _UNBOUNDED), jerk=min(jerk, _UNBOUNDED),
+                            binding=binding, blocked_by=blocked_by, joint=joint, reason=reason)
+        if solve_direction is not None and sigma is not None and sigma < self.watch_sigma:
+            self._singularity(caps, q, w, sigma, solve_direction)
+        return caps
+
+    def _singularity(self, caps: ProgressCaps, q, w, sigma: float, solve_direction) -> None:
+        """The singularity bound (see the module docstring) applied to ``caps``."""
+        caps.sigma = sigma
+        norm = float(np.sqrt(w @ w))
+        if not norm > 0.0:
+            return
+        ds = 1e-4 / norm  # a 1e-4 rad (or m) joint step along w
+        _, sigma_ahead = solve_direction(q + w * ds)
+        slope = (sigma_ahead - sigma) / ds  # dσ_min/ds
+        if not slope < 0.0:
+            return  # moving away from the singularity (or along it): never bounded
+        room = (sigma - self.stop_sigma) / (-2.0 * slope)
+        bound = math.sqrt(2.0 * caps.accel * room) if room > 0.0 else 0.0
+        caps.singular_speed = bound
+        if bound < caps.speed:
+            caps.speed = bound
+            caps.binding = "singularity"
+            caps.joint = -1
+            if bound <= 0.0:
+                caps.blocked_by = "singularity"
+                caps.reason = (f"stopped before a singularity: σ_min = {sigma:.3g} ≤ {self.stop_sigma:.3g} "
+                               "and the commanded direction lowers it further")
+            else:
+                caps.blocked_by = ""
+                caps.reason = (f"approaching a singularity (σ_min = {sigma:.3g}, stops at "
+                               f"{self.stop_sigma:.3g}): slowed along the commanded direction")

@@ -1,0 +1,233 @@
+"""Jogging: a held twist is followed in its own direction or scaled down, never rotated.
+
+The loop is the teleoperator's, ``cmd = ctrl.step(q, twist=xi, dt=1e-3); q = cmd.q_next``,
+held for 3 s into a singularity, then the reversed twist for 0.5 s:
+
+* **Panda boundary**: the built-in Panda from q = [0, 0.334, 0, −1.177, 0, 1.510, 0.785]
+  (MoveIt Servo's "approaching singularity" test state), a +x base twist of 0.1 m/s: the
+  arm stretches out toward its workspace boundary.
+* **UR5e wrist**: the line of ``ratectl demo`` (`ratectl.cli.demo.wrist_line`), a
+  constant-orientation translation whose joint path passes |q5| = 0.01 rad, where the wrist
+  flips (q5 → 0: joints 4 and 6 align); from its start, the twist 0.1 m/s along the line
+  (the direction that makes the exact inverse fastest at the closest point). At 0.1 m/s
+  the line's exact inverse needs 6.7× vmax there (21 rad/s at joint 4), so the arm must
+  slow down and stop before it.
+
+Uncommanded motion, over both legs: the tool point's displacement per cycle Δp minus its
+part along the commanded direction u when that part is positive, Σ‖Δp − max(Δp·u, 0)u‖
+(motion sideways or backwards, integrated), and the integrated rotation Σ∠(R_{k+1}R_kᵀ)
+(the twists are pure translations). Allowed: 2 mm and 0.5° in total. The reversed twist
+must move the tool along −u at ≥ 50 % of its speed (mean over the last 50 ms) within 0.5 s.
+The statuses: ``approaching-singularity`` while decelerating, then ``halted-singularity``
+once stopped, with ``cmd.kind`` the singularity's kind.
+
+Tool axes: ``ctrl.step(q, twist=xi, frame="tool", dt=...)`` with a pure rotation about the
+tool z axis keeps the tool point within 0.1 mm. Reasons name joints by ``chain.joint_names``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+import ratectl as rc
+from ratectl.spatial import rotation_angle, so3_log
+
+DT = 1e-3
+HOLD = 3.0          # s into the singularity
+BACK = 0.5          # s of the reversed twist
+SPEED = 0.1         # m/s
+PANDA_Q0 = np.array([0.0, 0.334, 0.0, -1.177, 0.0, 1.510, 0.785])
+
+
+@dataclass(frozen=True)
+class Jog:
+    name: str
+    chain: rc.Chain
+    P: np.ndarray            # tool points of every state (N+1, 3)
+    R: np.ndarray            # tool rotations (N+1, 3, 3)
+    u: np.ndarray            # the commanded direction of the first leg
+    cmds: tuple              # every command
+    forward: int             # cycles of the first leg
+    expected_kind: str
+
+    def uncommanded(self) -> tuple[float, float]:
+        """(integrated sideways-or-backward displacement [m], integrated rotation [rad]),
+        each leg judged against its own commanded direction."""
+        dP = np.diff(self.P, axis=0)
+        u = np.where(np.arange(len(dP))[:, None] < self.forward, self.u, -self.u)
+        along = np.einsum("ij,ij->i", dP, u)
+        off = dP - np.maximum(along, 0.0)[:, None] * u
+        rot = rotation_angle(self.R[1:] @ np.swapaxes(self.R[:-1], -1, -2))
+        return float(np.sum(np.linalg.norm(off, axis=1))), float(np.sum(rot))
+
+    def describe(self) -> str:
+        f = self.forward
+        d = self.P[f] - self.P[0]
+        along = float(d @ self.u)
+        side = float(np.linalg.norm(d - along * self.u))
+        statuses: dict[str, int] = {}
+        for c in self.cmds[:f]:
+            statuses[c.status] = statuses.get(c.status, 0) + 1
+        back = float((self.P[-1] - self.P[f]) @ -self.u)
+        return (f"{self.name}: after {HOLD:g} s {along * 1e3:.1f} mm along the twist, "
+                f"{side * 1e3:.1f} mm sideways (net), turned "
+                f"{math.degrees(rotation_angle(self.R[f] @ self.R[0].T)):.2f}° (net); last "
+                f"{self.cmds[f - 1]}; statuses {statuses}; reversed: {back * 1e3:.1f} mm in {BACK:g} s")
+
+
+def _jog(name, chain, q0, xi, expected_kind) -> Jog:
+    ctrl = rc.ResolvedRateController(chain)
+    q = np.array(q0, dtype=float)
+    qs, cmds = [q], []
+    n = int(round(HOLD / DT))
+    for k in range(n + int(round(BACK / DT))):
+        cmd = ctrl.step(q, twist=xi if k < n else -xi, dt=DT)
+        q = np.array(cmd.q_next)
+        qs.append(q)
+        cmds.append(cmd)
+    T = chain.fk(np.array(qs))
+    u = xi[:3] / np.linalg.norm(xi[:3])
+    return Jog(name, chain, T[:, :3, 3], T[:, :3, :3], u, tuple(cmds), n, expected_kind)
+
+
+def ur5e_wrist_twist():
+    """(chain, q0, ξ) of the UR5e wrist case (module docstring)."""
+    from ratectl.cli.demo import wrist_line
+
+    sc = wrist_line("ur5e")
+    d = sc.path.end[:3, 3] - sc.path.start[:3, 3]
+    xi = np.concatenate([SPEED * d / np.linalg.norm(d), np.zeros(3)])
+    return sc.chain, np.array(sc.q0, dtype=float), xi, sc.min_q5
+
+
+@functools.cache
+def jog(case: str) -> Jog:
+    if case == "panda-boundary":
+        xi = np.array([SPEED, 0.0, 0.0, 0.0, 0.0, 0.0])
+        return _jog(case, rc.robots.panda(), PANDA_Q0, xi, "boundary")
+    chain, q0, xi, _ = ur5e_wrist_twist()
+    return _jog(case, chain, q0, xi, "wrist")
+
+
+CASES = ["panda-boundary", "ur5e-wrist"]
+
+
+def test_the_ur5e_line_drives_q5_to_zero():
+    """The UR5e case is what it claims: the line's joint path starts at |q5| ≈ 0.24 rad and
+    passes |q5| ≤ 0.01 rad, a wrist singularity by `rc.analyze`, where the exact inverse of
+    the held twist needs several times vmax (21 rad/s at joint 4)."""
+    from ratectl.cli.demo import wrist_line
+
+    sc = wrist_line("ur5e")
+    assert abs(sc.q0[4]) >= 0.2 and sc.min_q5 <= 0.0101
+    assert rc.analyze(sc.chain, sc.q_closest).kind == "wrist"
+    _, _, xi, _ = ur5e_wrist_twist()
+    need = np.linalg.solve(sc.chain.jacobian(sc.q_closest), xi)
+    assert float(np.max(np.abs(need) / sc.chain.vmax)) > 3.0
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_jogging_into_a_singularity_never_slides(case):
+    run = jog(case)
+    side, rot = run.uncommanded()
+    assert side <= 2e-3 and rot <= math.radians(0.5), (
+        f"uncommanded motion {side * 1e3:.2f} mm (allowed 2 mm) and {math.degrees(rot):.3f}° "
+        f"(allowed 0.5°) in total. {run.describe()}")
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_the_reversed_twist_moves_away_at_once(case):
+    run = jog(case)
+    f = run.forward
+    last = int(round(0.05 / DT))
+    v = float((run.P[-1] - run.P[-1 - last]) @ -run.u) / (last * DT)
+    assert v >= 0.5 * SPEED, (
+        f"reversed twist: {v * 1e3:.1f} mm/s along it over the last 50 ms of {BACK:g} s "
+        f"(allowed ≥ {0.5 * SPEED * 1e3:.0f} mm/s); moved "
+        f"{float((run.P[-1] - run.P[f]) @ -run.u) * 1e3:.1f} mm. {run.describe()}")
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_statuses_tell_approaching_from_halted_with_the_kind(case):
+    run = jog(case)
+    statuses = [c.status for c in run.cmds[:run.forward]]
+    assert "approaching-singularity" in statuses, (
+        f"never 'approaching-singularity' while slowing down. {run.describe()}")
+    assert "halted-singularity" in statuses, f"never 'halted-singularity'. {run.describe()}"
+    first_halt = statuses.index("halted-singularity")
+    assert "approaching-singularity" in statuses[:first_halt], (
+        f"'halted-singularity' at cycle {first_halt} before any 'approaching-singularity'. "
+        f"{run.describe()}")
+    last = run.cmds[run.forward - 1]
+    assert last.status == "halted-singularity", (
+        f"still {last.status!r} after {HOLD:g} s of the held twist. {run.describe()}")
+    assert last.kind == run.expected_kind, (
+        f"kind {last.kind!r} at the halt (expected {run.expected_kind!r}). {run.describe()}")
+    assert last.reason, f"a halt without a reason. {run.describe()}"
+    assert float(np.max(np.abs(last.qd))) <= 1e-6, f"halted but moving: {last}"
+
+
+def _tool_z(chain, q0, seconds=1.0, rate=0.5):
+    ctrl = rc.ResolvedRateController(chain)
+    xi = np.array([0.0, 0.0, 0.0, 0.0, 0.0, rate])
+    q = np.array(q0, dtype=float)
+    T0 = chain.fk(q)
+    worst = 0.0
+    for _ in range(int(round(seconds / DT))):
+        cmd = ctrl.step(q, twist=xi, frame="tool", dt=DT)
+        q = np.array(cmd.q_next)
+        T = chain.fk(q)
+        worst = max(worst, float(np.linalg.norm(T[:3, 3] - T0[:3, 3])))
+    r = so3_log(T0[:3, :3].T @ T[:3, :3])   # the turn in the start's tool axes
+    return worst, r
+
+
+TOOLS = {
+    "flange": np.eye(4),
+    # a tilted, offset tool: its z axis is not any joint's axis
+    "tilted": rc.spatial.transform(rc.spatial.rotx(math.radians(30.0)), [0.05, 0.0, 0.12]),
+}
+TOOL_ARMS = {
+    "ur5e": (rc.robots.ur5e, [0.3, -1.2, 1.5, -1.9, -1.4, 0.6]),
+    "panda": (rc.robots.panda, [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]),
+}
+
+
+@pytest.mark.parametrize("tool", sorted(TOOLS))
+@pytest.mark.parametrize("arm", sorted(TOOL_ARMS))
+def test_a_rotation_about_tool_z_in_tool_axes_keeps_the_tool_point(arm, tool):
+    factory, q0 = TOOL_ARMS[arm]
+    chain = factory().with_tool(TOOLS[tool])
+    worst, r = _tool_z(chain, q0)
+    where = f"{arm} with the {tool} tool, 0.5 rad/s about tool z for 1 s"
+    assert worst <= 1e-4, f"{where}: the tool point moved {worst * 1e3:.3f} mm (allowed 0.1 mm)"
+    assert r[2] >= 0.45, f"{where}: turned only {r[2]:.3f} rad about tool z (expected ≥ 0.45)"
+    off = float(np.linalg.norm(r[:2]))
+    assert off <= math.radians(0.5), f"{where}: turned {math.degrees(off):.3f}° about other axes"
+
+
+def test_reasons_name_joints_by_the_chains_joint_names():
+    """The Panda's joint 1 runs into its upper limit under a base twist about z: a reason
+    names it ``panda_joint1`` (``chain.joint_names[0]``), and no reason lists joint indices."""
+    chain = rc.robots.panda()
+    assert chain.joint_names[0] == "panda_joint1"
+    ctrl = rc.ResolvedRateController(chain)
+    q = np.array([2.7, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    xi = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.5])
+    reasons = set()
+    for _ in range(1500):
+        cmd = ctrl.step(q, twist=xi, dt=DT)
+        q = np.array(cmd.q_next)
+        if cmd.reason:
+            reasons.add(cmd.reason)
+    assert q[0] > 2.85, f"joint 1 did not reach its limit (q1 = {q[0]:.3f})"
+    indexed = [r for r in reasons if re.search(r"joint\(?s?\)? ?\[\d", r)]
+    assert not indexed, f"reasons list joints by index: {sorted(indexed)[:3]}"
+    assert any(chain.joint_names[0] in r for r in reasons), (
+        f"no reason names {chain.joint_names[0]!r}: {sorted(reasons)[:5]}")
