@@ -29,6 +29,7 @@ STATUSES = (
                              # at rest (the command's tool speed within K·tolerance)
     "target-unreachable",    # servoing to a target: at rest outside the tolerances, a best
                              # effort (no motion within the limits lowers the error from here)
+    "collision-avoidance",   # a collision damper row holds the motion back (tasks= / collision=)
     "singular",              # the solver failed or needed more than vmax near a singularity
     "joint-limit",           # a joint position limit clipped q̇
     "velocity-scaled",       # q̇ was scaled down uniformly to respect vmax
