@@ -57,7 +57,7 @@ class PinocchioDistance:
         parents = [self.model.frames[g.parentFrame].name for g in self.geom.geometryObjects]
         order = {f"panda_link{i}": i for i in range(8)}
         for nm in ("panda_link8", "panda_hand", "panda_leftfinger", "panda_rightfinger"):
-            order[nm] = 8
+            order[nm] = 7  # rigidly fixed to link7 (fingers held)
         keep = []
         for k, cp in enumerate(self.geom.collisionPairs):
             a, b = order[parents[cp.first]], order[parents[cp.second]]
