@@ -9,6 +9,8 @@ The package follows the data flow of a control cycle, one subpackage per stage:
 * `ratectl.kinematics` — generated fk/Jacobian kernels, J̇, the Hessian;
 * `ratectl.singularity` — measures, classification, reports, scans, maps;
 * `ratectl.solvers` — exact, pseudo-inverse, damped, null-space and QP inverse velocity;
+* `ratectl.tasks` — tasks on links and joints with strict priorities;
+* `ratectl.collision` — self-collision and obstacles as velocity-damper rows (coal);
 * `ratectl.control` — the resolved-rate controller, its command, Ruckig smoothing;
 * `ratectl.paths` — lines, arcs, blended waypoints and their time laws;
 * `ratectl.planning` — inverse kinematics, joint paths, the path-speed governor;
@@ -61,8 +63,8 @@ _LAZY_ATTRS = {
     "run": "execution",
     "Execution": "execution",
 }
-_LAZY_MODULES = ("io", "singularity", "solvers", "control", "paths", "planning", "drivers", "execution",
-                 "interop", "cli")
+_LAZY_MODULES = ("io", "singularity", "solvers", "tasks", "collision", "control", "paths", "planning",
+                 "drivers", "execution", "interop", "cli")
 
 __all__ = [
     "DH", "MDH", "Chain", "Joint", "Limits", "errors", "kinematics", "robots", "spatial",

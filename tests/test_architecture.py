@@ -27,6 +27,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("model",),
     ("singularity",),
     ("solvers",),
+    ("tasks", "collision"),
     ("control", "paths"),
     ("planning",),
     ("drivers",),

@@ -31,6 +31,7 @@ STATUSES = (
                              # effort (no motion within the limits lowers the error from here)
     "halted-singularity",    # jogging or approaching: stopped before a singularity that the
                              # commanded direction runs into (moving away is free at once)
+    "collision-avoidance",   # a collision damper row holds the motion back (tasks= / collision=)
     "singular",              # the solver failed or needed more than vmax near a singularity
     "joint-limit",           # a joint position limit clipped q̇
     "approaching-singularity",  # jogging or approaching: slowed along the commanded direction

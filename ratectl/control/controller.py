@@ -193,12 +193,17 @@ class ResolvedRateController:
         timeout: a target whose ``stamp`` is older than this [s] is stale (halt).
         singular_sigma: below this σ_min a velocity-limited or failed solve is reported as
             "singular" rather than "velocity-scaled".
+        tasks: `ratectl.tasks` objects solved with strict priorities under the limits
+            (`ratectl.control.tasks_stage`): ``step(q, dt=...)`` then reads the targets from
+            the tasks (``step(q, target=T)`` still servos the tool alone).
+        collision: `ratectl.collision` models whose damper rows every level must satisfy.
     """
 
     def __init__(self, chain: Chain, *, solver: Solver | None = None, gain: float = 10.0,
                  limits: Limits | Chain | str | None = "chain", smoothing: bool = False,
                  position_tolerance: float = 1e-4, orientation_tolerance: float = 1e-3,
-                 timeout: float = 0.1, singular_sigma: float = 0.02, stop_sigma: float | None = None) -> None:
+                 timeout: float = 0.1, singular_sigma: float = 0.02, stop_sigma: float | None = None,
+                 tasks: Any = None, collision: Any = None) -> None:
 
         self.chain = chain
         self._n = n = chain.dof
@@ -284,16 +289,22 @@ class ResolvedRateController:
                                orientation_tolerance=self.orientation_tolerance)
         self.timeout = positive_number("timeout", timeout, allow_inf=True, unit="[s]")
         self.singular_sigma = positive_number("singular_sigma", singular_sigma, allow_zero=True)
-        if stop_sigma is None:  # where the solver starts to damp: a jog stops above it
+        self._init_jog(stop_sigma)
+        self._e = np.zeros(6)
+        self.reset()
+        self._tasks_hook(tasks, collision)
+
+    def _init_jog(self, stop_sigma: float | None) -> None:
+        """The jog's state and its bounds (`ProgressLimits`); ``stop_sigma`` None: where the
+        solver starts to damp (its ``epsilon``), at least ``singular_sigma``."""
+        if stop_sigma is None:
             stop_sigma = max(float(getattr(self.solver, "epsilon", 0.0) or 0.0), self.singular_sigma)
         self.stop_sigma = positive_number("stop_sigma", stop_sigma, allow_zero=True)
         jmax = self.filter.jmax if self.filter is not None else None  # jerk-limited only when smoothed
-        self._jog_limits = ProgressLimits(chain, self.limits, jmax=jmax, accel_share=_JOG_SHARE,
-                                        stop_sigma=self.stop_sigma,
-                                        watch_sigma=max(4.0 * self.stop_sigma, 1e-6))
+        self._jog_limits = ProgressLimits(self.chain, self.limits, jmax=jmax, accel_share=_JOG_SHARE,
+                                          stop_sigma=self.stop_sigma,
+                                          watch_sigma=max(4.0 * self.stop_sigma, 1e-6))
         self._jogger = Jog()
-        self._e = np.zeros(6)
-        self.reset()
 
     def _check_finite_limits(self) -> None:
         c = self.chain
@@ -369,6 +380,8 @@ class ResolvedRateController:
         """
         if frame != "base" and frame != "tool":
             raise InputError(f"frame must be 'base' or 'tool', got {frame!r}", argument="frame", value=frame)
+        if self._tasks is not None and target is None and twist is None and qd_ff is None:
+            return self._tasks_step(q, dt, stamp)  # tasks hook: targets come from the tasks
         return self._cycle(*self._validate(q, target, twist, dt, qd_ff, qdd_ff), stamp, frame)
 
     def _cycle(self, q: np.ndarray, target: np.ndarray | None, twist: np.ndarray | None, dt: float,
@@ -1379,6 +1392,58 @@ class ResolvedRateController:
             reasons.append(f"{int(np.count_nonzero(extra))} extra constraint row(s) active "
                            "(e.g. collision avoidance)")
         return qd, scale
+
+    # ------------------------------------------------------------------ tasks hook
+    # Several tasks with strict priorities and collision dampers: the cycle is
+    # `ratectl.control.tasks_stage.TasksStage`; this section only wires it in.
+    def _tasks_hook(self, tasks, collision) -> None:
+        """``tasks=`` / ``collision=``: build the `TasksStage` (None when neither is given)."""
+        self._tasks = None
+        if tasks is None and collision is None:
+            return
+        if self.filter is not None:
+            raise InputError("tasks= does not combine with smoothing yet: the cascade bounds the "
+                             "acceleration itself; pass smoothing=False", argument="smoothing",
+                             value=self._smoothing_option)
+        from .tasks_stage import TasksStage
+
+        self._tasks = TasksStage(self.chain, list(tasks or ()), list(collision or ()))
+
+    def _tasks_step(self, q, dt, stamp) -> Command:
+        """One cycle of the tasks: validate, halt on bad values, solve the cascade, command."""
+        q, _, _, dt, _, _ = self._validate(q, None, None, dt, None, None)
+        halt = self._halt_reason(q, None, None, dt, None, None, stamp)
+        if halt is not None:
+            return halt
+        assert self._tasks is not None
+        try:
+            res = self._tasks.solve(q, dt=dt, qd_prev=self._qd, limits=self.limits)
+        except (RatectlError, np.linalg.LinAlgError) as err:
+            return self._halt(q, dt, f"tasks: {err}")
+        qd = res.qd.copy()
+        qdd = (qd - self._qd) / dt
+        q_next = q + qd * dt
+        self._q_next_last = q_next.copy()
+        self._qd = qd.copy()
+        self._qdd = qdd
+        self._q_last = q.copy()
+        t0 = self.time
+        self.time = t0 + dt
+        flags = res.flags or ("regular",)
+        status = min(flags, key=_RANK.__getitem__)
+        e = np.zeros(6)
+        ep = eo = float("nan")
+        for t in self._tasks.tasks:  # the tool pose task's error, when there is one
+            if type(t).__name__ == "Pose" and getattr(t, "link", None) is None and t.has_target:
+                e = t.rows(self.chain, q).error.copy()
+                ep, eo = float(np.linalg.norm(e[:3])), float(np.linalg.norm(e[3:]))
+                break
+        return make_command({"qd": qd, "q_next": q_next, "qdd": qdd.copy(), "status": status,
+                             "flags": flags, "reason": "; ".join(res.reasons), "error": e,
+                             "position_error": ep, "orientation_error": eo, "twist": np.zeros(6),
+                             "sigma_min": float("nan"), "damping": 0.0, "task_error": res.residuals,
+                             "velocity_scale": 1.0, "limits_active": res.limits_active, "time": t0,
+                             "dt": dt, "solve": res}, self.chain, self._q_last)
 
     # ------------------------------------------------------------------ halting
     def _halt(self, q, dt, reason, *, status="halted", sigma_min=float("nan"), error=None,

@@ -56,16 +56,22 @@ class ModelDescription:
     """The serial chain a model file describes: its joints, tool transform and name.
 
     ``label`` names the source in messages (a file path, ``"<URDF string>"``, ...).
+    ``links`` lists the named frames rigidly attached to the chain, each as
+    ``(name, k, T)``: the frame is ``T`` (4×4, constant) after the chain frame of joint ``k``
+    (the frame after the k-th moving joint; ``k = 0`` is the base).
     """
 
     joints: tuple[JointDescription, ...]
     tool: np.ndarray
     name: str
     label: str
+    links: tuple[tuple[str, int, np.ndarray], ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "tool", read_only(self.tool))
         object.__setattr__(self, "joints", tuple(self.joints))
+        object.__setattr__(self, "links", tuple((str(nm), int(k), read_only(T))
+                                                for nm, k, T in self.links))
 
 
 def axis_rotation(axis: ArrayLike) -> np.ndarray:

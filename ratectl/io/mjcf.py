@@ -278,6 +278,7 @@ def _describe_model(model, *, tip, name, label) -> ModelDescription:
                                                       model.body_jntadr[b] + model.body_jntnum[b])}
     _check_equalities(model, chain_joint_ids, label)
     joints: list[JointDescription] = []
+    links: list[tuple[str, int, np.ndarray]] = []
     A = np.eye(4)
     for b in path:
         A = A @ transform(rotation_from_quat(model.body_quat[b]), model.body_pos[b])
@@ -305,6 +306,7 @@ def _describe_model(model, *, tip, name, label) -> ModelDescription:
                 joints.append(movable_joint("prismatic", A, axis, name=jname, qlim=qlim, vmax=None,
                                              what=what, offset=qpos0))
             A = np.eye(4)
+        links.append((mujoco.mj_id2name(model, OBJ.mjOBJ_BODY, b) or f"body{b}", len(joints), A))
     if site >= 0:
         A = A @ transform(rotation_from_quat(model.site_quat[site]), model.site_pos[site])
     if not joints:
@@ -314,7 +316,7 @@ def _describe_model(model, *, tip, name, label) -> ModelDescription:
     if mname is None:
         raw = bytes(model.names)
         mname = raw[:raw.find(b"\0")].decode("utf-8", "replace") or "mjcf"
-    return ModelDescription(joints=tuple(joints), tool=A, name=mname, label=label)
+    return ModelDescription(joints=tuple(joints), tool=A, name=mname, label=label, links=tuple(links))
 
 
 def _default_tip_body(model, label: str) -> int:

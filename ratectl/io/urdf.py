@@ -73,12 +73,13 @@ def parse_urdf(path: Path, *, tip: str | None = None, base_link: str | None = No
     path_joints = _path(tree, base_link, tip, label)
     if auto_tip:
         _refuse_end_effector_joint(label, path_joints, tree.joints, tip)
-    chain_joints, A = _describe_joints(tree, path_joints, label)
+    chain_joints, A, links = _describe_joints(tree, path_joints, label, base_link)
     if not chain_joints:
         raise ImportModelError(f"{label}: no revolute, continuous or prismatic joint between "
                                f"{base_link!r} and {tip!r}", element=f"link {tip!r}")
     rname = name if name is not None else (root.get("name") or "urdf")
-    return ModelDescription(joints=tuple(chain_joints), tool=A, name=rname, label=label)
+    return ModelDescription(joints=tuple(chain_joints), tool=A, name=rname, label=label,
+                            links=tuple(links))
 
 
 @dataclass
@@ -195,10 +196,14 @@ def _path(tree: _Tree, base_link: str, tip: str, label: str) -> list[str]:
     return path_joints
 
 
-def _describe_joints(tree: _Tree, path_joints: list[str],
-                     label: str) -> tuple[list[JointDescription], np.ndarray]:
-    """The moving joints of the path in general form, and the constant transform after the last."""
+def _describe_joints(tree: _Tree, path_joints: list[str], label: str, base_link: str,
+                     ) -> tuple[list[JointDescription], np.ndarray, list[tuple[str, int, np.ndarray]]]:
+    """The moving joints of the path in general form, the constant transform after the last,
+    and the links rigidly attached to the chain (``(name, k, T)``: ``T`` after the frame of
+    moving joint k; the path's links, and links hanging from them by fixed joints only)."""
     chain_joints: list[JointDescription] = []
+    links: list[tuple[str, int, np.ndarray]] = [(base_link, 0, np.eye(4))]
+    on_path = {base_link}
     A = np.eye(4)
     for jname in path_joints:
         el = tree.joints[jname]
@@ -213,8 +218,11 @@ def _describe_joints(tree: _Tree, path_joints: list[str],
                 f"{label}: {what} has unknown type {jtype!r}; allowed: revolute, continuous, "
                 "prismatic, fixed", element=what)
         O = _urdf_origin(el.find("origin"), what)
+        child = str(el.find("child").get("link"))  # type: ignore[union-attr]  # checked by _read_tree
+        on_path.add(child)
         if jtype == "fixed":
             A = A @ O
+            links.append((child, len(chain_joints), A))
             continue
         if (mimic := el.find("mimic")) is not None:
             raise ImportModelError(
@@ -228,7 +236,20 @@ def _describe_joints(tree: _Tree, path_joints: list[str],
         chain_joints.append(movable_joint(_URDF_MOVABLE[str(jtype)], A @ O, axis, name=jname,
                                           qlim=qlim, vmax=vmax, what=what))
         A = np.eye(4)
-    return chain_joints, A
+        links.append((child, len(chain_joints), A))
+    # links hanging from the path by fixed joints only (a hand's frames, sensors)
+    stack = list(links)
+    while stack:
+        lname, k, T = stack.pop()
+        for child in tree.children.get(lname, []):
+            el = tree.joints[tree.parent_joint[child]]
+            if child in on_path or el.get("type") != "fixed":
+                continue
+            on_path.add(child)
+            item = (child, k, T @ _urdf_origin(el.find("origin"), f"joint {el.get('name')!r}"))
+            links.append(item)
+            stack.append(item)
+    return chain_joints, A, links
 
 
 _END_EFFECTOR_WORDS = re.compile(r"finger|gripper|jaw|knuckle|claw|grasp|suction", re.IGNORECASE)

@@ -39,7 +39,8 @@ class Chain:
 
     def __init__(self, joints: Sequence[Joint], *, base: ArrayLike | None = None,
                  tool: ArrayLike | None = None, name: str = "chain", table: tuple | None = None,
-                 characteristic_length: float | None = None):
+                 characteristic_length: float | None = None,
+                 links: Sequence[tuple[str, int, ArrayLike]] | None = None):
         joints = tuple(joints)
         if not joints:
             raise ModelError("a chain needs at least one joint", field="joints")
@@ -67,6 +68,8 @@ class Chain:
                              f"got {characteristic_length!r}", field="characteristic_length")
         self._length = float(characteristic_length)
         self._kernels: dict = {}
+        self._links = _check_links(links, self._n)
+        self._link_chains: dict[str, Chain | None] = {}
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -154,14 +157,15 @@ class Chain:
                 raise ImportModelError(f"{description.label}: {jd.element}: {exc}",
                                        element=jd.element) from None
         try:
-            return cls(joints, tool=description.tool, name=description.name)
+            return cls(joints, tool=description.tool, name=description.name,
+                       links=description.links or None)
         except ModelError as exc:
             raise ImportModelError(f"{description.label}: {exc}", element=str(exc.field)) from None
 
     def with_tool(self, tool: ArrayLike) -> Chain:
         """The same chain with another tool transform (flange → tool, 4×4)."""
         return Chain(self._joints, base=self._base, tool=tool, name=self._name,
-                     table=self._table, characteristic_length=self._length)
+                     table=self._table, characteristic_length=self._length, links=self._link_list())
 
     def with_limits(self, *, qlim: ArrayLike | None = None, vmax: ArrayLike | None = None,
                     amax: ArrayLike | None = None, jmax: ArrayLike | None = None) -> Chain:
@@ -222,12 +226,12 @@ class Chain:
             table = tuple(dataclasses.replace(r, **{key: c[k] for key, c in cols.items()})
                           for k, r in enumerate(table))
         return Chain(joints, base=self._base, tool=self._tool, name=self._name, table=table,
-                     characteristic_length=self._length)
+                     characteristic_length=self._length, links=self._link_list())
 
     def with_base(self, base: ArrayLike) -> Chain:
         """The same chain with another base transform (world → frame 0, 4×4)."""
         return Chain(self._joints, base=base, tool=self._tool, name=self._name,
-                     table=self._table, characteristic_length=self._length)
+                     table=self._table, characteristic_length=self._length, links=self._link_list())
 
     # ------------------------------------------------------------------ properties
     @property
@@ -246,6 +250,63 @@ class Chain:
     @property
     def joint_names(self) -> tuple[str, ...]:
         return tuple(j.name for j in self._joints)
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        """Names of the frames fixed to the arm that ``fk``/``jacobian`` accept as ``link=``:
+        the URDF links (MJCF bodies) rigidly attached to the chain, base link first; for a
+        chain built from a DH table or joints, ``"link1"`` … ``"linkn"`` (the frame after
+        joint i)."""
+        return tuple(self._links)
+
+    def link_placement(self, link: str) -> tuple[int, np.ndarray]:
+        """``(k, T)``: the link's frame is the constant ``T`` (4×4, read-only) after the frame
+        of joint k (the k-th joint's moving frame; k = 0: the base frame)."""
+        try:
+            return self._links[link]
+        except (KeyError, TypeError):
+            raise InputError(f"link {link!r} is not a link of {self._name!r}; links: "
+                             f"{list(self._links)}", argument="link", value=link) from None
+
+    def _link_list(self) -> list[tuple[str, int, np.ndarray]]:
+        return [(nm, k, T) for nm, (k, T) in self._links.items()]
+
+    def _link_chain(self, link: str) -> Chain | None:
+        """The sub-chain of the joints before ``link`` with the link frame as its tool (its
+        generated kernels give the link's pose and Jacobian); None for a link on the base."""
+        if link in self._link_chains:
+            return self._link_chains[link]
+        k, T = self.link_placement(link)
+        sub = None if k == 0 else Chain(self._joints[:k], base=self._base, tool=T,
+                                        name=f"{self._name}:{link}",
+                                        characteristic_length=self._length)
+        self._link_chains[link] = sub
+        return sub
+
+    def _link_fk_jacobian(self, q: ArrayLike, link: str, frame: str, point: ArrayLike | None,
+                          want_jacobian: bool = True):
+        """Pose (..., 4, 4) and Jacobian (..., 6, n) of a named link (zero columns after it)."""
+        a = self.check_q(q)
+        sub = self._link_chain(link)
+        batch = a.shape[:-1]
+        if sub is None:
+            k, Tl = self._links[link]
+            T = np.broadcast_to(self._base @ Tl, batch + (4, 4)).copy()
+            if not want_jacobian:
+                return T, None
+            kinematics.check_frame(frame)
+            if point is not None:
+                kinematics.check_point(point)
+            return T, np.zeros(batch + (6, self._n))
+        k = sub.dof
+        if not want_jacobian:
+            return sub.fk(a[..., :k] if k < self._n else a), None
+        T, Jk = sub.fk_jacobian(np.ascontiguousarray(a[..., :k]), frame=frame, point=point)
+        if k == self._n:
+            return T, Jk
+        J = np.zeros(batch + (6, self._n))
+        J[..., :k] = Jk
+        return T, J
 
     @property
     def table(self) -> tuple | None:
@@ -397,8 +458,11 @@ class Chain:
     # The single-configuration fast paths are inlined here (no further Python calls
     # than the generated kernel and one numpy conversion); everything else is in
     # `ratectl.kinematics`.
-    def fk(self, q: ArrayLike) -> np.ndarray:
-        """Base-to-tool pose ``T_world_tool`` (..., 4, 4) at q (..., n)."""
+    def fk(self, q: ArrayLike, *, link: str | None = None) -> np.ndarray:
+        """Base-to-tool pose ``T_world_tool`` (..., 4, 4) at q (..., n); with ``link`` (one of
+        `link_names`) the pose of that link's frame."""
+        if link is not None:
+            return self._link_fk_jacobian(q, link, "base", None, False)[0]
         if type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64:
             v = q.tolist()
             s = sum(v)
@@ -407,7 +471,8 @@ class Chain:
                 return _fromiter(k(*v), _F64, 16).reshape(4, 4)
         return kinematics.fk(self, q)
 
-    def jacobian(self, q: ArrayLike, *, frame: str = "base", point: ArrayLike | None = None) -> np.ndarray:
+    def jacobian(self, q: ArrayLike, *, frame: str = "base", point: ArrayLike | None = None,
+                 link: str | None = None) -> np.ndarray:
         """Geometric Jacobian (..., 6, n), rows [v; ω].
 
         Args:
@@ -415,7 +480,12 @@ class Chain:
             frame: ``"base"`` (rows in world/base axes) or ``"tool"`` (tool axes).
             point: reference point for the linear rows, as coordinates in the tool
                 frame [m] (a point fixed to the tool); default the tool origin.
+            link: one of `link_names`: the Jacobian of that link's frame (``frame="tool"``
+                and ``point`` then refer to the link frame); the columns of the joints
+                after the link are zero.
         """
+        if link is not None:
+            return self._link_fk_jacobian(q, link, frame, point)[1]
         if (type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64
                 and frame == "base" and point is None):
             v = q.tolist()
@@ -425,8 +495,12 @@ class Chain:
                 return _fromiter(k(*v), _F64, 6 * self._n).reshape(6, self._n)
         return kinematics.jacobian(self, q, frame=frame, point=point)
 
-    def fk_jacobian(self, q: ArrayLike, *, frame: str = "base", point: ArrayLike | None = None):
-        """``(fk(q), jacobian(q))`` computed together (cheaper than two calls)."""
+    def fk_jacobian(self, q: ArrayLike, *, frame: str = "base", point: ArrayLike | None = None,
+                    link: str | None = None):
+        """``(fk(q), jacobian(q))`` computed together (cheaper than two calls); ``link`` as in
+        `jacobian`."""
+        if link is not None:
+            return self._link_fk_jacobian(q, link, frame, point)
         if (type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64
                 and frame == "base" and point is None):
             v = q.tolist()
@@ -459,6 +533,27 @@ class Chain:
                       point: ArrayLike | None = None) -> np.ndarray:
         """Static joint torques τ = Jᵀ F for a tool wrench F = [f; τ], in N and N·m."""
         return kinematics.joint_torques(self, q, wrench, frame=frame, point=point)
+
+
+def _check_links(links, n: int) -> dict[str, tuple[int, np.ndarray]]:
+    """``{name: (k, T)}`` from ``(name, k, T)`` triples; default ``"link1"`` … ``"linkn"``."""
+    if links is None:
+        return {f"link{i}": (i, read_only(np.eye(4))) for i in range(1, n + 1)}
+    out: dict[str, tuple[int, np.ndarray]] = {}
+    for item in links:
+        try:
+            name, k, T = item
+        except (TypeError, ValueError):
+            raise ModelError(f"links must be (name, joint index, 4x4) triples, got {item!r}",
+                             field="links", value=item) from None
+        if not isinstance(name, str) or name in out:
+            raise ModelError(f"link names must be distinct strings, got {name!r}", field="links",
+                             value=name)
+        if not (isinstance(k, int | np.integer) and 0 <= int(k) <= n):
+            raise ModelError(f"link {name!r}: joint index must be an integer in [0, {n}], got {k!r}",
+                             field="links", value=k)
+        out[name] = (int(k), read_only(check_transform(T, f"link {name!r}")))
+    return out
 
 
 _F64 = np.dtype(np.float64)

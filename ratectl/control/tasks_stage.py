@@ -1,0 +1,181 @@
+"""The per-cycle glue between tasks, collision models and the priority cascade
+(`TasksStage`): given q, dt, the previous q̇ and the limits, it builds each level's rows
+and the collision dampers, solves the cascade, and says what held the motion back.
+
+Levels are the tasks grouped by priority (0 first); within a level each task's rows are
+weighted by its ``weight``. Every collision model adds its damper rows ``G q̇ ≤ h`` as hard
+constraints of every level, beside the joint position, velocity and acceleration box.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..arrays import read_only
+from ..errors import InputError
+from ..solvers.priority import CascadeResult, Level, PriorityCascade
+from ..solvers.qp.bounds import joint_velocity_bounds
+from ..tasks.base import Task
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+    from ..model.limits import Limits
+
+__all__ = ["TasksStage", "TasksResult"]
+
+_KINDS = {1: "velocity", 2: "position", 3: "acceleration"}
+
+
+@dataclass(frozen=True, kw_only=True)
+class TasksResult:
+    """What one `TasksStage.solve` gives (``Command.solve`` of a tasks cycle).
+
+    Attributes:
+        qd: joint velocities (n,) [rad/s or m/s].
+        priorities: the priority of each level, highest first.
+        residuals: (levels,) ‖W^{1/2}(A q̇ − b)‖ of each level after the solve.
+        task_errors: the error norm of each task (in the order given) [m, rad or rad];
+            NaN for a task without a target.
+        flags: statuses that apply ("collision-avoidance", "joint-limit",
+            "velocity-scaled", "acceleration-limited").
+        reasons: one sentence per flag.
+        limits_active: kinds of joint limit holding q̇.
+        collision_distance: the smallest distance over the collision pairs near enough to be
+            checked [m] (inf without collision models or when none is near).
+        cascade: the cascade's full `ratectl.solvers.priority.CascadeResult`.
+    """
+
+    qd: np.ndarray
+    priorities: tuple[int, ...]
+    residuals: np.ndarray
+    task_errors: np.ndarray
+    flags: tuple[str, ...]
+    reasons: tuple[str, ...]
+    limits_active: tuple[str, ...]
+    collision_distance: float
+    cascade: CascadeResult
+
+    def __post_init__(self) -> None:
+        for name in ("qd", "residuals", "task_errors"):
+            object.__setattr__(self, name, read_only(getattr(self, name)))
+
+    # what the controller's report reads from a solver result
+    @property
+    def task_error(self) -> np.ndarray:
+        return self.residuals
+
+
+class TasksStage:
+    """Tasks and collision models solved with strict priorities under the limits.
+
+    Args:
+        chain: the arm.
+        tasks: `ratectl.tasks.Task` objects (any priorities; a level is all the tasks of
+            one priority).
+        collision: collision models (`ratectl.collision.SelfCollision`, `Obstacles`).
+        cascade: the `PriorityCascade` (default: ``PriorityCascade()``, daqp when installed).
+
+    One stage per controller; not thread-safe (the cascade and the tasks keep state).
+    """
+
+    def __init__(self, chain: Chain, tasks: Sequence[Task] = (), collision: Sequence[Any] = (), *,
+                 cascade: PriorityCascade | None = None) -> None:
+        tasks = list(tasks)
+        for t in tasks:
+            if not isinstance(t, Task):
+                raise InputError(f"tasks must be ratectl.tasks objects (Pose, Position, Orientation, "
+                                 f"Posture, ...), got {t!r}", argument="tasks", value=t)
+            link = getattr(t, "link", None)
+            if link is not None:
+                chain.link_placement(link)  # an unknown link fails now, naming the links
+        collision = list(collision)
+        for c in collision:
+            if not callable(getattr(c, "rows", None)):
+                raise InputError(f"collision must be ratectl.collision models, got {c!r}",
+                                 argument="collision", value=c)
+        if not tasks:
+            raise InputError("tasks= needs at least one task (e.g. rc.tasks.Pose(priority=0))",
+                             argument="tasks", value=tasks)
+        self.chain = chain
+        self.tasks = tasks
+        self.collision = collision
+        self.cascade = cascade if cascade is not None else PriorityCascade()
+
+    def solve(self, q: np.ndarray, *, dt: float, qd_prev: np.ndarray | None,
+              limits: Limits | Chain | None) -> TasksResult:
+        """q̇ for this cycle (see the module docstring)."""
+        chain = self.chain
+        n = chain.dof
+        by_priority: dict[int, list] = {}
+        errors = np.full(len(self.tasks), np.nan)
+        for k, t in enumerate(self.tasks):
+            if not t.has_target:
+                continue
+            r = t.rows(chain, q)
+            errors[k] = float(np.linalg.norm(r.error))
+            by_priority.setdefault(t.priority, []).append((r, t.weight))
+        if not by_priority:
+            raise InputError("no task has a target: call set_target on at least one task",
+                             argument="tasks", value=self.tasks)
+        priorities = tuple(sorted(by_priority))
+        levels = []
+        for p in priorities:
+            items = by_priority[p]
+            A = np.vstack([r.A for r, _ in items])
+            b = np.concatenate([r.b for r, _ in items])
+            w = np.concatenate([np.full(r.b.shape[0], wt) for r, wt in items])
+            levels.append(Level(A, b, w))
+        G = np.zeros((0, n))
+        h = np.zeros(0)
+        pairs: list[tuple[str, str]] = []
+        dist: list[float] = []
+        closest = np.inf
+        if self.collision:
+            parts = [c.rows(q) for c in self.collision]
+            G = np.vstack([G] + [p.G for p in parts])
+            h = np.concatenate([h] + [p.h for p in parts])
+            for p in parts:
+                pairs += p.pairs
+                dist += p.distance.tolist()
+                closest = min(closest, p.closest)
+        res = self.cascade.solve(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
+                                 extra_inequalities=(G, h) if h.size else None)
+        flags: list[str] = []
+        reasons: list[str] = []
+        if h.size and res.rows_active.any():
+            act = np.flatnonzero(res.rows_active)
+            worst = int(act[np.argmin(np.asarray(dist)[act])])
+            flags.append("collision-avoidance")
+            blocked = [p for p, r in zip(priorities, res.residuals.tolist(), strict=True)
+                       if r > 1e-6 * (1.0 + float(np.abs(levels[0].b).max()))]
+            reasons.append(f"{act.size} collision damper row(s) active, closest {pairs[worst][0]} – "
+                           f"{pairs[worst][1]} at {dist[worst] * 1e3:.3g} mm"
+                           + (f"; level(s) {blocked} held back" if blocked else ""))
+        if res.relaxed.any():
+            flags.append("collision-avoidance")
+            reasons.append(f"a collision damper could not be met within the joint limits this period "
+                           f"(relaxed by up to {float(res.relaxed.max()):.3g} m/s)")
+        active: tuple[str, ...] = ()
+        if res.box_active.any() and limits is not None:
+            vb = joint_velocity_bounds(limits, q=q, qd_prev=qd_prev, dt=dt, margin=self.cascade.margin, n=n)
+            joints = np.flatnonzero(res.box_active)
+            kinds = set()
+            for j in joints.tolist():
+                up = abs(res.qd[j] - vb.upper[j]) <= abs(res.qd[j] - vb.lower[j])
+                src = int(vb.source_upper[j] if up else vb.source_lower[j])
+                if src in _KINDS:
+                    kinds.add(_KINDS[src])
+            active = tuple(k for k in ("velocity", "position", "acceleration") if k in kinds)
+            names = [chain.joint_names[j] for j in joints.tolist()]
+            for kind, flag in (("position", "joint-limit"), ("velocity", "velocity-scaled"),
+                               ("acceleration", "acceleration-limited")):
+                if kind in kinds:
+                    flags.append(flag)
+                    reasons.append(f"joint(s) {names} at a {kind} bound")
+        return TasksResult(qd=res.qd.copy(), priorities=priorities, residuals=res.residuals,
+                           task_errors=errors, flags=tuple(dict.fromkeys(flags)), reasons=tuple(reasons),
+                           limits_active=active, collision_distance=float(closest), cascade=res)

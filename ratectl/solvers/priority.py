@@ -1,0 +1,376 @@
+"""Strict priorities under joint limits: a cascade of small QPs (`PriorityCascade`).
+
+Levels ``k = 0, 1, …`` (0 highest) each ask ``A_k q̇ ≈ b_k`` with row weights ``w_k``.
+Level k solves
+
+    minimise    ½‖W_k^{1/2}(A_k q̇ − b_k)‖² + ½λ²‖q̇‖²
+    subject to  l ≤ q̇ ≤ u                   (the joint position/velocity/acceleration box,
+                                              `ratectl.solvers.qp.joint_velocity_bounds`)
+                G q̇ ≤ h                     (extra rows: collision dampers, …)
+                A_j q̇ = A_j q̇_j*,  j < k    (every higher level keeps what it achieved)
+
+The equalities are exact for least squares: over a convex set, the minimisers of
+‖W^{1/2}(A q̇ − b)‖² are exactly the feasible points with the optimal A q̇, so a lower level
+never changes what a higher level achieves within the limits. They are imposed by
+parametrisation, not as rows: ``q̇ = x_k + Z_k z`` with ``x_k`` the answer so far and ``Z_k``
+an orthonormal basis of the null space of the stacked higher levels' weighted rows
+(singular values below ``tolerance``·max(1, σ_max) count as zero — the tolerance of the
+equality), so each level is a QP in ``dim Z_k`` unknowns and a redundant higher row never
+makes the constraints degenerate. The cascade stops when no freedom is left.
+
+Each level first tries the unconstrained minimiser (the null-space projection
+``z = −H⁻¹f``): when it satisfies the box and the rows no QP is solved (that is
+null-space projection exactly, where no inequality is active); otherwise the backend
+solves the level's QP. When the box and the rows G q̇ ≤ h have no common point (a
+collision damper that the acceleration limit cannot honour this period), the rows are
+first relaxed by the least-squares slack s ≥ 0 (G q̇ ≤ h + s) that makes them feasible,
+and the result says so (``relaxed``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..arrays import read_only
+from ..errors import InputError, SolverError
+from ..model.limits import Limits
+from .base import _positive
+from .qp.active_set import qp_via_dual
+from .qp.bounds import _BIG, _BoundCache, _box, _vec
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+
+__all__ = ["PriorityCascade", "CascadeResult", "Level", "default_backend"]
+
+
+@dataclass(frozen=True)
+class Level:
+    """One priority level: rows ``A q̇ ≈ b`` (A (m, n), b (m,)) with per-row weights (m,)."""
+
+    A: np.ndarray
+    b: np.ndarray
+    weights: np.ndarray | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class CascadeResult:
+    """The answer of `PriorityCascade.solve`.
+
+    Attributes:
+        qd: joint velocities (n,) [rad/s or m/s], within the box and the rows.
+        residuals: (levels,) ‖W_k^{1/2}(A_k q̇ − b_k)‖ per level, in the levels' units.
+        qps: (levels,) True where a level needed its QP (an inequality was active at the
+            unconstrained answer), False where the null-space projection was the answer.
+        freedom: (levels,) the number of joint-velocity directions each level could use.
+        lower, upper: the box (n,) of this step.
+        box_active: (n,) bool, joints on a face of the box.
+        rows_active: (k,) bool, extra rows G q̇ ≤ h that hold with equality.
+        relaxed: (k,) the slack s ≥ 0 added to h where box and rows had no common point
+            (zeros otherwise).
+        backend: the QP backend that was used.
+    """
+
+    qd: np.ndarray
+    residuals: np.ndarray
+    qps: np.ndarray
+    freedom: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    box_active: np.ndarray
+    rows_active: np.ndarray
+    relaxed: np.ndarray
+    backend: str
+
+    def __post_init__(self) -> None:
+        for name in ("qd", "residuals", "lower", "upper", "relaxed"):
+            object.__setattr__(self, name, read_only(getattr(self, name)))
+        for name in ("qps", "freedom", "box_active", "rows_active"):
+            object.__setattr__(self, name, read_only(getattr(self, name), dtype=None))
+
+
+def default_backend() -> str:
+    """``"daqp"`` when the package is installed (the ``qp-fast`` extra), else ``"proxqp"``
+    when proxsuite is, else ``"exact"`` (ratectl's own dual active-set method, core)."""
+    try:
+        import daqp  # noqa: F401
+
+        return "daqp"
+    except ImportError:
+        pass
+    try:
+        import proxsuite  # noqa: F401
+
+        return "proxqp"
+    except ImportError:
+        return "exact"
+
+
+class _Infeasible(Exception):
+    """The first level's QP found no point in the box and the rows."""
+
+
+_ACT_TOL = 1e-7  # a bound or row within this (relative) counts as active
+
+
+class PriorityCascade:
+    """Strict-priority inverse velocity under joint limits (see the module docstring).
+
+    Args:
+        backend: ``"auto"`` (`default_backend`), ``"daqp"`` (called directly),
+            ``"exact"`` (ratectl's dual active-set method: no extra package), or any
+            solver name of `qpsolvers.solve_qp` (``"proxqp"``, ``"quadprog"``, ``"osqp"``).
+        damping: λ [dimensionless], the regularisation ½λ²‖q̇‖² of every level (keeps
+            each level's QP strictly convex; the equalities on the higher levels are exact
+            whatever λ).
+        tolerance: singular values of a level's weighted rows below
+            ``tolerance · max(1, σ_max)`` count as zero (that direction is left to the
+            lower levels): the tolerance of the equality on higher levels.
+        margin: distance kept from the position limits [rad or m].
+
+    One cascade per controller (it caches the box arithmetic); not thread-safe.
+    """
+
+    def __init__(self, *, backend: str = "auto", damping: float = 1e-5, tolerance: float = 1e-9,
+                 margin: float = 0.0) -> None:
+        if not isinstance(backend, str):
+            raise InputError(f"backend must be a solver name, got {backend!r}", argument="backend",
+                             value=backend)
+        if backend == "auto":
+            backend = default_backend()
+        if backend not in ("daqp", "exact"):
+            import qpsolvers
+
+            if backend not in qpsolvers.available_solvers:
+                raise InputError(f"QP backend {backend!r} is not installed; available: 'exact', "
+                                 f"{sorted(qpsolvers.available_solvers)}", argument="backend",
+                                 value=backend)
+        elif backend == "daqp":
+            try:
+                import daqp  # noqa: F401
+            except ImportError:
+                raise InputError("backend 'daqp' needs the daqp package (pip install 'ratectl[qp-fast]')",
+                                 argument="backend", value=backend) from None
+        self.backend = backend
+        self.damping = _positive("damping", damping, allow_zero=True)
+        self.tolerance = _positive("tolerance", tolerance, allow_zero=True)
+        self.margin = _positive("margin", margin, allow_zero=True)
+        self._bcache: _BoundCache | None = None
+
+    def __repr__(self) -> str:
+        return f"PriorityCascade(backend={self.backend!r}, damping={self.damping!r})"
+
+    # ------------------------------------------------------------------ the box
+    def box(self, n: int, limits: Limits | Chain | None, q: np.ndarray | None, qd_prev: np.ndarray | None,
+            dt: float | None) -> tuple[np.ndarray, np.ndarray]:
+        """The joint-velocity box (lo, hi) of this step (`joint_velocity_bounds`'s arithmetic;
+        ±1e15 where a side is absent)."""
+        if limits is None:
+            return np.full(n, -_BIG), np.full(n, _BIG)
+        bc = self._bcache
+        if bc is None or bc.src is not limits or bc.dt != dt or bc.n != n:
+            bc = self._bcache = _BoundCache(limits, Limits.of(limits, n), dt, self.margin)
+        lo, hi, _ = _box(bc, q, qd_prev)
+        return np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+
+    # ------------------------------------------------------------------ solve
+    def solve(self, levels: Sequence[Level | tuple], *, limits: Limits | Chain | None = None,
+              q: ArrayLike | None = None, qd_prev: ArrayLike | None = None, dt: float | None = None,
+              extra_inequalities: tuple[ArrayLike, ArrayLike] | None = None) -> CascadeResult:
+        """Solve the levels in order (see the module docstring).
+
+        Args:
+            levels: `Level` objects or ``(A, b)`` / ``(A, b, weights)`` tuples, highest
+                priority first; every A has n columns.
+            limits: a Chain or `Limits` (None: no box).
+            q: joint positions (n,): the position side of the box.
+            qd_prev: the previous q̇ (n,): with ``dt``, the acceleration side.
+            dt: the control period [s].
+            extra_inequalities: ``(G, h)``: rows G q̇ ≤ h every level must satisfy.
+
+        Raises:
+            InputError: shapes; SolverError: a backend failure on a feasible problem.
+        """
+        lv = [self._level(L, k) for k, L in enumerate(levels)]
+        if not lv:
+            raise InputError("solve needs at least one level", argument="levels", value=levels)
+        n = lv[0][0].shape[1]
+        for k, (A, _, _) in enumerate(lv):
+            if A.shape[1] != n:
+                raise InputError(f"level {k} has {A.shape[1]} columns, level 0 has {n}",
+                                 argument="levels", value=A.shape)
+        qv = _vec("q", q, n)
+        qdv = _vec("qd_prev", qd_prev, n)
+        if dt is not None:
+            dt = _positive("dt", dt)
+        lo, hi = self.box(n, limits, qv, qdv, dt)
+        G, h = self._rows(extra_inequalities, n)
+        try:
+            return self._cascade(lv, lo, hi, G, h, np.zeros(h.shape[0]), n)
+        except _Infeasible:
+            if not h.size:
+                raise SolverError(f"the priority cascade's first level failed on backend "
+                                  f"{self.backend!r}", status="failed") from None
+        relaxed = self._relaxation(lo, hi, G, h)
+        return self._cascade(lv, lo, hi, G, h + relaxed, relaxed, n)
+
+    def _cascade(self, lv, lo, hi, G, h, relaxed, n) -> CascadeResult:
+        x = np.minimum(np.maximum(np.zeros(n), lo), hi)
+        Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
+        lam2 = self.damping**2
+        qps = np.zeros(len(lv), dtype=bool)
+        freedom = np.zeros(len(lv), dtype=int)
+        have_rows = h.size > 0
+        for k, (A, b, sw) in enumerate(lv):
+            r = n if Z is None else Z.shape[1]
+            freedom[k] = r
+            if r == 0:
+                continue
+            M = sw[:, None] * A if Z is None else (sw[:, None] * A) @ Z
+            rhs = sw * (b - A @ x)
+            # min ½‖M z − rhs‖² + ½λ²‖x + Z z‖²
+            H = M.T @ M
+            f = -(M.T @ rhs)
+            if lam2:
+                H = H + lam2 * np.eye(r)
+                f = f + lam2 * (x if Z is None else Z.T @ x)
+            try:
+                z = -np.linalg.solve(H, f)
+            except np.linalg.LinAlgError:
+                z = -np.linalg.lstsq(H, f, rcond=None)[0]
+            step = z if Z is None else Z @ z
+            cand = x + step
+            ok = bool(np.all(cand >= lo - 1e-12) and np.all(cand <= hi + 1e-12))
+            if ok and have_rows:
+                ok = bool(np.all(G @ cand <= h + 1e-12 * (1.0 + np.abs(h))))
+            if not ok:
+                qps[k] = True
+                z = self._level_qp(H, f, x, Z, lo, hi, G, h, n, r)
+                step = z if Z is None else Z @ z
+                cand = x + step
+            x = cand
+            # what the next levels may still change: the null space of this level's rows
+            if k + 1 < len(lv):
+                _, s, vt = np.linalg.svd(M, full_matrices=True)
+                tol = self.tolerance * max(1.0, float(s[0]) if s.size else 0.0)
+                rank = int(np.count_nonzero(s > tol))
+                V = vt[rank:].T
+                Z = V if Z is None else Z @ V
+        x = np.minimum(np.maximum(x, lo), hi)
+        residuals = np.array([math.sqrt(float(np.sum((sw * (A @ x - b)) ** 2))) for A, b, sw in lv])
+        span = np.maximum(1.0, np.abs(hi) + np.abs(lo))
+        box_active = (x >= hi - _ACT_TOL * span) | (x <= lo + _ACT_TOL * span)
+        rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else np.zeros(0, dtype=bool)
+        return CascadeResult(qd=x, residuals=residuals, qps=qps, freedom=freedom, lower=lo, upper=hi,
+                             box_active=box_active, rows_active=rows_active, relaxed=relaxed,
+                             backend=self.backend)
+
+    # ------------------------------------------------------------------ pieces
+    @staticmethod
+    def _level(L, k):
+        if isinstance(L, Level):
+            A, b, w = L.A, L.b, L.weights
+        else:
+            try:
+                A, b, *rest = L
+            except (TypeError, ValueError):
+                raise InputError(f"level {k} must be a Level or (A, b[, weights]), got {L!r}"[:300],
+                                 argument="levels", value=L) from None
+            w = rest[0] if rest else None
+        A = np.asarray(A, dtype=float)
+        b = np.asarray(b, dtype=float)
+        if A.ndim != 2 or b.shape != (A.shape[0],):
+            raise InputError(f"level {k}: A must be (m, n) and b (m,), got {A.shape} and {b.shape}",
+                             argument="levels", value=(A.shape, b.shape))
+        sw = np.ones(A.shape[0]) if w is None else np.sqrt(np.broadcast_to(np.asarray(w, dtype=float),
+                                                                            (A.shape[0],)))
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b)) and np.all(np.isfinite(sw))):
+            raise InputError(f"level {k}: A, b and the weights must be finite", argument="levels",
+                             value=k)
+        return A, b, sw
+
+    @staticmethod
+    def _rows(extra, n):
+        if extra is None:
+            return np.zeros((0, n)), np.zeros(0)
+        try:
+            G, h = extra
+            G = np.asarray(G, dtype=float).reshape(-1, n)
+            h = np.asarray(h, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise InputError(f"extra_inequalities must be (G (k, {n}), h (k,))",
+                             argument="extra_inequalities", value=extra) from None
+        if G.shape[0] != h.shape[0] or not np.all(np.isfinite(G)) or np.any(np.isnan(h)):
+            raise InputError(f"extra_inequalities: G {G.shape} and h {h.shape} must agree and be finite",
+                             argument="extra_inequalities", value=extra)
+        return G, h
+
+    def _relaxation(self, lo, hi, G, h) -> np.ndarray:
+        """The slack s ≥ 0 (least squares) with G q̇ ≤ h + s feasible in the box."""
+        n = lo.shape[0]
+        m = h.shape[0]
+        # [q̇; s]: min ½‖s‖² + ½ε‖q̇‖², G q̇ − s ≤ h, box, s ≥ 0
+        H = np.diag(np.concatenate([np.full(n, 1e-6), np.ones(m)]))
+        Gs = np.hstack([G, -np.eye(m)])
+        lo2 = np.concatenate([lo, np.zeros(m)])
+        hi2 = np.concatenate([hi, np.full(m, _BIG)])
+        sol = self._qp(H, np.zeros(n + m), lo2, hi2, Gs, h)
+        if sol is None:
+            raise SolverError("the extra rows could not be relaxed to meet the joint-velocity box",
+                              status="infeasible")
+        return np.maximum(sol[n:], 0.0) * (1.0 + 1e-9) + 1e-12
+
+    def _level_qp(self, H, f, x, Z, lo, hi, G, h, n, r) -> np.ndarray:
+        """The level's QP in z: min ½zᵀHz + fᵀz s.t. lo ≤ x + Z z ≤ hi, G(x + Z z) ≤ h."""
+        if Z is None:
+            sol = self._qp(H, f, lo - x, hi - x, G, h - G @ x)
+        else:
+            C = np.vstack([Z, -Z, G @ Z]) if h.size else np.vstack([Z, -Z])
+            d = np.concatenate([hi - x, x - lo, h - G @ x]) if h.size else np.concatenate([hi - x, x - lo])
+            keep = d < 0.5 * _BIG
+            sol = self._qp(H, f, None, None, C[keep], np.maximum(d[keep], 0.0))
+        if sol is None:
+            # x itself (z = 0) is feasible for every level after the first: keep it
+            if Z is not None:
+                return np.zeros(r)
+            raise _Infeasible
+        return sol
+
+    def _qp(self, H, f, lb, ub, C, d) -> np.ndarray | None:
+        """min ½xᵀHx + fᵀx s.t. lb ≤ x ≤ ub (optional), C x ≤ d; None when infeasible/failed."""
+        r = H.shape[0]
+        if self.backend == "daqp":
+            import daqp
+
+            if lb is not None:
+                bu = np.concatenate([np.minimum(ub, _BIG), d])
+                bl = np.concatenate([np.maximum(lb, -_BIG), np.full(d.shape[0], -_BIG)])
+            else:
+                bu = np.ascontiguousarray(d, dtype=float)
+                bl = np.full(d.shape[0], -_BIG)
+            sense = np.zeros(bu.shape[0], dtype=np.int32)
+            Cc = np.ascontiguousarray(C, dtype=float) if C.shape[0] else np.zeros((0, r))
+            x, _, flag, _ = daqp.solve(np.ascontiguousarray(H), np.ascontiguousarray(f, dtype=float), Cc,
+                                       bu, bl, sense)
+            return np.asarray(x, dtype=float) if flag in (1, 2) else None
+        if self.backend == "exact":
+            lo_ = np.full(r, -np.inf) if lb is None else lb
+            hi_ = np.full(r, np.inf) if ub is None else ub
+            return qp_via_dual(H, -f, lo_, hi_, C, d)
+        import qpsolvers
+
+        kw: dict[str, Any] = {}
+        if lb is not None:
+            kw.update(lb=lb, ub=ub)
+        try:
+            x = qpsolvers.solve_qp(H, f, C if C.shape[0] else None, d if C.shape[0] else None,
+                                   solver=self.backend, **kw)
+        except Exception:  # a backend's own exception types: reported as a failed level
+            return None
+        return None if x is None else np.asarray(x, dtype=float)

@@ -1,0 +1,165 @@
+"""What every task has: a priority, a weight within its level, a gain, a target, and its rows
+``A q̇ ≈ b`` at a configuration (`Task`, `TaskRows`); `FrameTask`, the base of the tasks on
+a link's frame."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..arrays import read_only
+from ..checks import positive_number
+from ..errors import InputError
+from ..spatial import rigid_transform_defect
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+
+__all__ = ["Task", "TaskRows", "FrameTask"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class TaskRows:
+    """A task's rows at one configuration: ``A q̇ ≈ b``.
+
+    Attributes:
+        A: (m, n) rows [task unit per rad/s].
+        b: (m,) desired task velocity: feed-forward + gain · error.
+        error: (m,) the task error (target − actual, in the task's units) [m, rad or rad].
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+    error: np.ndarray
+
+    def __post_init__(self) -> None:
+        for name in ("A", "b", "error"):
+            object.__setattr__(self, name, read_only(getattr(self, name)))
+
+
+class Task:
+    """A thing the controller is asked to do besides (or instead of) the tool pose.
+
+    Args:
+        priority: 0 is the highest; a level of lower priority (a larger number) never
+            changes what a higher level achieves within the limits.
+        weight: the task's weight within its level (its rows are scaled by √weight).
+        gain: K [1/s] on the task error: ``b = feed-forward + K · error``.
+
+    Subclasses implement `rows`; `set_target` sets what the task tracks.
+    """
+
+    #: rows per task (None: depends on the chain)
+    size: int | None = None
+
+    def __init__(self, *, priority: int = 0, weight: float = 1.0, gain: float = 10.0) -> None:
+        if isinstance(priority, bool) or not isinstance(priority, int | np.integer) or priority < 0:
+            raise InputError(f"priority must be an integer ≥ 0 (0 is the highest), got {priority!r}",
+                             argument="priority", value=priority)
+        self.priority = int(priority)
+        self.weight = positive_number("weight", weight)
+        self.gain = positive_number("gain", gain, allow_zero=True, unit="[1/s]")
+
+    @property
+    def has_target(self) -> bool:
+        """True once the task has something to track."""
+        return True
+
+    def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
+        """The task's rows ``A q̇ ≈ b`` at ``q`` (n,) of ``chain``."""
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(priority={self.priority}, weight={self.weight:g}, gain={self.gain:g})"
+
+
+def check_pose(T: ArrayLike, name: str = "target") -> np.ndarray:
+    """``T`` as a rigid 4×4 pose, else InputError."""
+    try:
+        a = np.array(T, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a 4x4 pose, got {T!r}"[:300], argument=name, value=T) from None
+    if a.shape != (4, 4) or not np.all(np.isfinite(a)):
+        raise InputError(f"{name} must be a finite 4x4 pose, got shape {a.shape}", argument=name, value=T)
+    defect = rigid_transform_defect(a)
+    if defect is not None:
+        raise InputError(f"{name} {defect}", argument=name, value=T)
+    return a
+
+
+def check_vector(v: ArrayLike | None, size: int, name: str, unit: str) -> np.ndarray | None:
+    """``v`` as a finite (size,) float array (None stays None), else InputError."""
+    if v is None:
+        return None
+    try:
+        if isinstance(v, str | bytes) or np.iscomplexobj(v):
+            raise TypeError(name)
+        a = np.array(v, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be {size} real numbers {unit}, got {v!r}"[:300], argument=name,
+                         value=v) from None
+    if a.shape != (size,) or not np.all(np.isfinite(a)):
+        raise InputError(f"{name} must be a finite ({size},) vector {unit}, got shape {a.shape}",
+                         argument=name, value=v)
+    return a
+
+
+class FrameTask(Task):
+    """A task on a link's frame (``link=None``: the tool): the shared target handling of
+    `Pose`, `Position` and `Orientation`.
+
+    The error is the one pose error of the package, `ratectl.spatial.pose_error`:
+    ``e = [p_d − p ; log(R_d Rᵀ)]`` in base axes; the rows are the link's geometric
+    Jacobian (base axes, linear rows at the link origin), restricted to the task's rows.
+    """
+
+    _rows: slice = slice(0, 6)
+
+    def __init__(self, *, link: str | None = None, priority: int = 0, weight: float = 1.0,
+                 gain: float = 10.0) -> None:
+        super().__init__(priority=priority, weight=weight, gain=gain)
+        if link is not None and not isinstance(link, str):
+            raise InputError(f"link must be a link name (a string) or None for the tool, got {link!r}",
+                             argument="link", value=link)
+        self.link = link
+        self._target: np.ndarray | None = None
+        self._twist = np.zeros(6)
+
+    @property
+    def has_target(self) -> bool:
+        return self._target is not None
+
+    @property
+    def target(self) -> np.ndarray | None:
+        """The target pose (4×4, a copy) or None."""
+        return None if self._target is None else self._target.copy()
+
+    def _set(self, T: np.ndarray, twist: np.ndarray | None) -> None:
+        self._target = T
+        self._twist = np.zeros(6)
+        if twist is not None:
+            self._twist[self._rows] = twist
+
+    def frame(self, chain: Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(pose (4, 4), Jacobian (6, n)) of the task's frame at q."""
+        return chain.fk_jacobian(q, link=self.link) if self.link is not None else chain.fk_jacobian(q)
+
+    def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
+        """``A = J[rows]``, ``b = ξ_ff[rows] + K · e[rows]`` with ``e`` the pose error."""
+        from ..spatial import pose_error_into
+
+        if self._target is None:
+            raise InputError(f"{self!r} has no target: call set_target first", argument="target",
+                             value=None)
+        T, J = self.frame(chain, q)
+        e = np.empty(6)
+        pose_error_into(e, self._target, T)
+        r = self._rows
+        return TaskRows(A=J[r], b=self._twist[r] + self.gain * e[r], error=e[r])
+
+    def __repr__(self) -> str:
+        link = "tool" if self.link is None else repr(self.link)
+        return f"{type(self).__name__}(link={link}, priority={self.priority}, weight={self.weight:g})"

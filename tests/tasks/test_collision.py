@@ -1,0 +1,64 @@
+"""Collision models from the Panda URDF (coal): pairs, exclusions, damper rows in the loop."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import ratectl as rc
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from panda_erd import HOME, HULL_CONTACT, PinocchioDistance, panda_chain, panda_urdf  # noqa: E402
+
+URDF = panda_urdf()
+pytestmark = [pytest.mark.skipif(URDF is None, reason="example-robot-data is not installed")]
+coal = pytest.importorskip("coal")
+
+
+def test_import_ratectl_does_not_load_coal():
+    code = "import sys, ratectl, ratectl.collision, ratectl.tasks; print('coal' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+def test_self_collision_pairs_and_distances_match_pinocchio():
+    pytest.importorskip("pinocchio")
+    ch = panda_chain(URDF)
+    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02, exclude=HULL_CONTACT)
+    excluded = {frozenset(p[:2]) for p in sc.excluded}
+    assert frozenset(("panda_link3", "panda_link4")) in excluded  # adjacent
+    assert frozenset(("panda_link5", "panda_link7")) in excluded  # asked for
+    assert "adjacent" in sc.describe()
+    pd = PinocchioDistance(URDF, exclude=HULL_CONTACT)
+    checked = 0
+    for seed in range(12):
+        q = ch.random_q(rng=seed)
+        d = pd(q)
+        if d > 0:  # separated (penetration depths come from different EPA runs)
+            assert sc.distances(q).min() == pytest.approx(d, abs=1e-6)
+            checked += 1
+    assert checked >= 3
+
+
+def test_sphere_obstacle_is_kept_at_the_margin_and_reported():
+    ch = panda_chain(URDF)
+    T0 = ch.fk(HOME)
+    centre = T0[:3, 3] + np.array([0.15, 0.0, 0.0])
+    ball = rc.collision.Sphere(centre, 0.04)
+    obs = rc.collision.Obstacles.from_urdf(URDF, ch, [ball], margin=0.02, links=["panda_hand"])
+    T = T0.copy()
+    T[:3, 3] += [0.3, 0.0, 0.0]  # straight through the ball
+    tool = rc.tasks.Pose(priority=0, target=T, gain=3.0)
+    ctrl = rc.ResolvedRateController(ch, tasks=[tool, rc.tasks.Posture(HOME, priority=1, gain=0.5)],
+                                     collision=[obs])
+    q = HOME.copy()
+    dmin, statuses = np.inf, set()
+    for _ in range(1500):
+        cmd = ctrl.step(q, dt=2e-3)
+        q = cmd.q_next.copy()
+        dmin = min(dmin, float(obs.distances(q).min()))
+        statuses.update(cmd.flags)
+    assert dmin >= 0.015
+    assert "collision-avoidance" in statuses

@@ -1,0 +1,131 @@
+"""Strict priorities: the cascade (unit) and the Panda acceptance (tool + elbow + posture)."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import ratectl as rc
+from ratectl.solvers.priority import PriorityCascade
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from panda_erd import HOME, panda_chain, panda_urdf  # noqa: E402
+
+URDF = panda_urdf()
+BACKENDS = ["daqp", "exact", "proxqp", "quadprog"]
+
+
+class _Box:
+    def __init__(self, n, vmax):
+        self.lower = np.full(n, -np.inf)
+        self.upper = np.full(n, np.inf)
+        self.vmax = np.full(n, vmax)
+        self.amax = np.full(n, np.inf)
+
+
+@settings(max_examples=25)
+@given(st.integers(0, 2**31 - 1), st.sampled_from(BACKENDS))
+def test_lower_level_never_changes_what_a_higher_level_achieves(seed, backend):
+    rng = np.random.default_rng(seed)
+    n = 7
+    A0, b0 = rng.normal(size=(4, n)), rng.normal(size=4)
+    A1, b1 = rng.normal(size=(3, n)), 3 * rng.normal(size=3)
+    A2, b2 = np.eye(n), rng.normal(size=n)
+    lim = _Box(n, float(rng.uniform(0.3, 2.0)))
+    c = PriorityCascade(backend=backend)
+    alone = c.solve([(A0, b0)], limits=lim)
+    full = c.solve([(A0, b0), (A1, b1), (A2, b2)], limits=lim)
+    # the higher level's achieved residual is kept (within the solver tolerance)
+    assert full.residuals[0] <= alone.residuals[0] + 1e-5 * (1 + alone.residuals[0])
+    assert np.all(np.abs(full.qd) <= lim.vmax + 1e-6)
+    two = c.solve([(A0, b0), (A1, b1)], limits=lim)
+    assert full.residuals[1] <= two.residuals[1] + 1e-5 * (1 + two.residuals[1])
+
+
+def test_no_active_inequality_is_null_space_projection():
+    rng = np.random.default_rng(1)
+    n = 7
+    A0, b0 = rng.normal(size=(6, n)), rng.normal(size=6)
+    z = rng.normal(size=n)
+    res = PriorityCascade(damping=0.0).solve([(A0, b0), (np.eye(n), z)])
+    pinv = np.linalg.pinv(A0)
+    expected = pinv @ b0 + (np.eye(n) - pinv @ A0) @ z
+    np.testing.assert_allclose(res.qd, expected, atol=1e-9)
+    assert not res.qps.any()
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_extra_rows_hold_at_every_level(backend):
+    rng = np.random.default_rng(2)
+    n = 7
+    A0, b0 = rng.normal(size=(6, n)), rng.normal(size=6)
+    G, h = rng.normal(size=(2, n)), np.array([0.05, -0.02])
+    res = PriorityCascade(backend=backend).solve([(A0, b0), (np.eye(n), np.ones(n))], limits=_Box(n, 1.0),
+                                                 extra_inequalities=(G, h))
+    tol = 1e-4 if backend == "proxqp" else 1e-6  # proxqp stops at its own (looser) tolerance
+    assert np.all(G @ res.qd <= h + tol)
+
+
+def test_infeasible_rows_are_relaxed_and_reported():
+    n = 3
+    G = np.array([[1.0, 0.0, 0.0]])
+    h = np.array([-5.0])  # q̇_0 ≤ −5 with |q̇| ≤ 1: impossible
+    res = PriorityCascade().solve([(np.eye(n), np.zeros(n))], limits=_Box(n, 1.0), extra_inequalities=(G, h))
+    assert res.relaxed[0] == pytest.approx(4.0, abs=1e-5)
+    assert res.qd[0] == pytest.approx(-1.0, abs=1e-6)
+
+
+def _reference(T0, t, Tf=1.5):
+    s = min(t / Tf, 1.0)
+    s5 = 10 * s**3 - 15 * s**4 + 6 * s**5
+    sp = (30 * s**2 - 60 * s**3 + 30 * s**4) / Tf if t < Tf else 0.0
+    dp, w = np.array([0.1, 0.1, -0.1]), np.array([0.0, 0.0, 0.3])
+    T = T0.copy()
+    T[:3, 3] += s5 * dp
+    T[:3, :3] = rc.spatial.so3_exp(s5 * w) @ T0[:3, :3]
+    return T, np.concatenate([sp * dp, sp * w])
+
+
+@pytest.mark.skipif(URDF is None, reason="example-robot-data is not installed")
+def test_panda_tool_elbow_posture_acceptance():
+    ch = panda_chain(URDF)
+    dt, N = 1e-3, 2000
+    T0 = ch.fk(HOME)
+    p4 = ch.fk(HOME, link="panda_link4")[:3, 3]
+    p4t = p4 + np.array([0.0, 0.15, 0.05])
+
+    def run(with_lower):
+        tool = rc.tasks.Pose(priority=0)
+        tasks = [tool]
+        if with_lower:
+            tasks += [rc.tasks.Position(link="panda_link4", priority=1, target=p4t, gain=2.0),
+                      rc.tasks.Posture(HOME, priority=2, gain=1.0)]
+        ctrl = rc.ResolvedRateController(ch, tasks=tasks)
+        q = HOME.copy()
+        Ts, qs, qds, res = [], [], [], []
+        for k in range(N):
+            tool.set_target(*_reference(T0, k * dt)[:1], twist=_reference(T0, k * dt)[1])
+            cmd = ctrl.step(q, dt=dt)
+            assert cmd.status != "halted", cmd.reason
+            q = cmd.q_next.copy()
+            Ts.append(ch.fk(q))
+            qs.append(q)
+            qds.append(cmd.qd.copy())
+            res.append(cmd.solve.residuals.copy())
+        return np.array(Ts), np.array(qs), np.array(qds), res
+
+    Ta, _, _, _ = run(False)
+    Tb, qb, qdb, res = run(True)
+    assert len(res[-1]) == 3  # each level's residual in the command
+    assert np.abs(Ta[:, :3, 3] - Tb[:, :3, 3]).max() <= 1e-5
+    dR = max(np.linalg.norm(rc.spatial.so3_log(a[:3, :3] @ b[:3, :3].T)) for a, b in zip(Ta, Tb, strict=True))
+    assert dR <= 1e-4
+    p_end = ch.fk(qb[-1], link="panda_link4")[:3, 3]
+    assert 1 - np.linalg.norm(p_end - p4t) / np.linalg.norm(p4 - p4t) >= 0.3
+    assert np.all(np.abs(qdb) <= ch.vmax * (1 + 1e-9))
+    qdd = np.diff(np.vstack([np.zeros(7), qdb]), axis=0) / dt
+    assert np.all(np.abs(qdd) <= ch.amax * (1 + 1e-6))
+    assert ch.within_limits(qb).all()
