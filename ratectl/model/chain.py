@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 from .. import kinematics
 from ..arrays import read_only
 from ..errors import ImportModelError, InputError, ModelError
-from ..io.description import ModelDescription
+from ..io.description import ModelDescription, VisualDescription
 from .joints import DH, MDH, Joint, check_transform
 
 __all__ = ["Chain"]
@@ -39,7 +39,8 @@ class Chain:
 
     def __init__(self, joints: Sequence[Joint], *, base: ArrayLike | None = None,
                  tool: ArrayLike | None = None, name: str = "chain", table: tuple | None = None,
-                 characteristic_length: float | None = None):
+                 characteristic_length: float | None = None,
+                 visuals: Sequence[VisualDescription] = ()):
         joints = tuple(joints)
         if not joints:
             raise ModelError("a chain needs at least one joint", field="joints")
@@ -66,6 +67,7 @@ class Chain:
             raise ModelError("characteristic_length must be a positive length [m], "
                              f"got {characteristic_length!r}", field="characteristic_length")
         self._length = float(characteristic_length)
+        self._visuals = tuple(visuals)
         self._kernels: dict = {}
 
     # ------------------------------------------------------------------ constructors
@@ -154,14 +156,15 @@ class Chain:
                 raise ImportModelError(f"{description.label}: {jd.element}: {exc}",
                                        element=jd.element) from None
         try:
-            return cls(joints, tool=description.tool, name=description.name)
+            return cls(joints, tool=description.tool, name=description.name,
+                       visuals=description.visuals)
         except ModelError as exc:
             raise ImportModelError(f"{description.label}: {exc}", element=str(exc.field)) from None
 
     def with_tool(self, tool: ArrayLike) -> Chain:
         """The same chain with another tool transform (flange → tool, 4×4)."""
         return Chain(self._joints, base=self._base, tool=tool, name=self._name,
-                     table=self._table, characteristic_length=self._length)
+                     table=self._table, characteristic_length=self._length, visuals=self._visuals)
 
     def with_limits(self, *, qlim: ArrayLike | None = None, vmax: ArrayLike | None = None,
                     amax: ArrayLike | None = None, jmax: ArrayLike | None = None) -> Chain:
@@ -222,12 +225,12 @@ class Chain:
             table = tuple(dataclasses.replace(r, **{key: c[k] for key, c in cols.items()})
                           for k, r in enumerate(table))
         return Chain(joints, base=self._base, tool=self._tool, name=self._name, table=table,
-                     characteristic_length=self._length)
+                     characteristic_length=self._length, visuals=self._visuals)
 
     def with_base(self, base: ArrayLike) -> Chain:
         """The same chain with another base transform (world → frame 0, 4×4)."""
         return Chain(self._joints, base=base, tool=self._tool, name=self._name,
-                     table=self._table, characteristic_length=self._length)
+                     table=self._table, characteristic_length=self._length, visuals=self._visuals)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -246,6 +249,13 @@ class Chain:
     @property
     def joint_names(self) -> tuple[str, ...]:
         return tuple(j.name for j in self._joints)
+
+    @property
+    def visuals(self) -> tuple[VisualDescription, ...]:
+        """The links' geometry read from a model file (URDF ``<visual>``/``<collision>``),
+        each placed on a chain frame (`ratectl.io.description.VisualDescription`); empty
+        for chains built from DH tables. Used to draw the arm (`ratectl.viewer`)."""
+        return self._visuals
 
     @property
     def table(self) -> tuple | None:
