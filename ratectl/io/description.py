@@ -26,8 +26,8 @@ from ..arrays import read_only
 from ..errors import ImportModelError
 from ..spatial import transform
 
-__all__ = ["JointDescription", "ModelDescription", "VisualDescription", "SHAPES", "axis_rotation", "unit_axis", "movable_joint",
-           "MAX_LENGTH"]
+__all__ = ["JointDescription", "ModelDescription", "VisualDescription", "SHAPES", "axis_rotation",
+           "unit_axis", "movable_joint", "MAX_LENGTH"]
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -21,7 +21,7 @@ import pathlib
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -405,6 +405,7 @@ def _geometry(el: ET.Element, link: str, role: str, frame: int, T: np.ndarray, c
     try:
         origin = T @ _urdf_origin(el.find("origin"), what)
         filename = path = None
+        size: Any
         if shape.tag == "mesh":
             filename = shape.get("filename") or ""
             size = floats(shape.get("scale"), 3, default=[1.0, 1.0, 1.0], what=f"{what} <mesh scale>")

@@ -14,7 +14,7 @@ import io
 import logging
 import os
 import threading
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import trimesh
@@ -36,11 +36,12 @@ _cache_lock = threading.Lock()
 def capsule_mesh(points: np.ndarray, radius: float) -> trimesh.Trimesh:
     """Capsules of ``radius`` [m] along the polyline ``points`` (m, 3) [m] (a sphere for a
     single point)."""
-    parts = [trimesh.creation.icosphere(subdivisions=2, radius=radius).apply_translation(p)
-             for p in points]
+    parts: list[Any] = [trimesh.creation.icosphere(subdivisions=2, radius=radius).apply_translation(p)
+                        for p in points]
     for a, b in zip(points[:-1], points[1:], strict=True):
         parts.append(trimesh.creation.cylinder(radius=radius, segment=np.array([a, b]), sections=24))
-    return trimesh.util.concatenate(parts)
+    mesh: Any = trimesh.util.concatenate(parts)
+    return mesh
 
 
 def joint_mesh(centre: np.ndarray, axis: np.ndarray, kind: str, radius: float) -> trimesh.Trimesh:
@@ -81,7 +82,7 @@ def visual_glb(v: VisualDescription, *, default_rgba: tuple[float, float, float,
 
 def _build(v: VisualDescription, default_rgba) -> bytes | None:
     rgba = np.array(v.rgba if v.rgba is not None else default_rgba) * 255
-    obj: trimesh.Trimesh | trimesh.Scene | None
+    obj: Any
     if v.shape == "mesh":
         if v.path is None or not v.path.lower().endswith(MESH_SUFFIXES):
             return None

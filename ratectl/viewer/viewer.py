@@ -110,6 +110,7 @@ class _Arm:
                     continue
                 for i, (v, glb) in enumerate(pieces):
                     wxyz, pos = _wxyz_position(np.asarray(v.origin))
+                    assert glb is not None
                     self.server.scene.add_glb(f"{root}/frame{v.frame}/{link}_{role}{i}", glb,
                                               wxyz=wxyz, position=pos)
                     drawn += 1
@@ -198,8 +199,10 @@ class Viewer:
         self._command: Any = None
         self._note = ""
         self._seq = 1                 # states stored
-        self._drawn = 0               # states drawn
+        self._drawn = 0               # states drawn (a state and all before it)
+        self._frames = 0              # scene updates made by the drawing thread
         self._lost_handle: Any = None
+        self._path_handle: Any = None
         self._lost_key: tuple = ()
         self._replay: dict[str, Any] | None = None
         self._extra_arms: list[_Arm] = []
@@ -322,7 +325,7 @@ class Viewer:
         if self._path_handle is not None:
             self._path_handle.remove()
         self._path_handle = self._server.scene.add_line_segments(
-            "/path", segs, colors=_PATH_RGB, thickness=max(0.12 * self._radius, 0.002))
+            "/path", segs, colors=_PATH_RGB, thickness=max(0.4 * self._radius, 0.003))
 
     def replay(self, run: Any, *, others: Mapping[str, Any] | None = None, spacing: float | None = None,
                play: bool = False, speed: float = 1.0) -> None:
@@ -366,12 +369,12 @@ class Viewer:
         if others:
             self._server.scene.add_label("/replay/label0", getattr(run, "method", "") or "run",
                                          position=np.array([0.0, 0.0, 0.9 * self._L]))
-        for i, (name, r) in enumerate(rows.items()):
+        for i, r in enumerate(rows.values()):
             p = self._chain.fk(r["q"])[:, :3, 3] + np.array([0.0, i * step, 0.0])
             if len(p) >= 2:
                 self._server.scene.add_line_segments(f"/replay/trace{i}", np.stack([p[:-1], p[1:]], 1),
                                                      colors=_TRACE_RGB,
-                                                     thickness=max(0.08 * self._radius, 0.0015))
+                                                     thickness=max(0.3 * self._radius, 0.002))
         folder = gui.add_folder("Replay")
         with folder:
             dt = float(np.median(np.diff(rows[""]["t"]))) if len(rows[""]["t"]) > 1 else 1e-3
@@ -379,7 +382,7 @@ class Viewer:
                                     step=dt, initial_value=t_start)
             playing = gui.add_checkbox("play", initial_value=play)
         self._replay = dict(rows=rows, slider=slider, playing=playing, folder=folder, speed=float(speed),
-                            t_start=t_start, t_end=t_end)
+                            t_start=t_start, t_end=t_end, name=getattr(run, "method", "") or "run")
         slider.on_update(lambda _event: self._show_replay(float(slider.value)))
         self._show_replay(t_start)
         if self._player is None:
@@ -526,6 +529,7 @@ class Viewer:
                 seq, q, command, note = self._seq, self._q, self._command, self._note
             try:
                 self._draw(q, command, note)
+                self._frames += 1
             except Exception:  # noqa: BLE001 - drawing must never take the caller down
                 if self._closed:
                     return
@@ -547,7 +551,7 @@ class Viewer:
                 for s, v in zip(self._sliders, q, strict=True):
                     v = float(min(max(v, s.min), s.max))
                     if abs(float(s.value) - v) > 1e-9:
-                        s.value = v
+                        s.value = v  # type: ignore[misc]  # (viser's setter; mypy sees the getter)
         lines = [f"**{self._chain.name}** — {self._chain.dof} joints",
                  f"σ_min(J_L) = {report.sigma_min_scaled:.4g} · kind: **{report.kind}**"
                  + (" (near-singular)" if report.near_singular and not report.singular else "")
@@ -556,8 +560,9 @@ class Viewer:
             lines.append(f"{report.reason}")
         if command is not None:
             status = getattr(command, "status", "?")
-            lines.append(f"command: **{status}**, |e| = {1e3 * getattr(command, 'position_error', math.nan):.1f}"
-                         f" mm, {math.degrees(getattr(command, 'orientation_error', math.nan)):.2f}°, "
+            e_p = 1e3 * getattr(command, "position_error", math.nan)
+            e_a = math.degrees(getattr(command, "orientation_error", math.nan))
+            lines.append(f"command: **{status}**, |e| = {e_p:.1f} mm, {e_a:.2f}°, "
                          f"damping {getattr(command, 'damping', math.nan):.3g}")
         lines.extend(replay_lines)
         if note:
@@ -629,7 +634,7 @@ class Viewer:
                     q_main = r["q"][k]
                 else:
                     self._extra_arms[i - 1].show(r["q"][k])
-                lines.append(self._replay_line(name, r, k))
+                lines.append(self._replay_line(name or self._replay["name"], r, k))
         assert q_main is not None
         with self._cond:
             self._q = q_main.copy()
@@ -637,7 +642,7 @@ class Viewer:
 
     @staticmethod
     def _replay_line(name: str, r: dict[str, Any], k: int) -> str:
-        bits = [f"**{name}**:" if name else "run:"]
+        bits = [f"**{name}**:"]
         if r["statuses"]:
             bits.append(f"status **{r['statuses'][k]}**")
         if r["kinds"] and r["kinds"][k]:

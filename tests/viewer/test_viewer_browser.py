@@ -9,6 +9,7 @@ the screenshots are also written to ``DIR/viewer_*.png`` (the pictures of docs/v
 
 import os
 import sysconfig
+import time
 from pathlib import Path
 
 import numpy as np
@@ -48,6 +49,14 @@ def _changed(a, b, tol=30.0):
     return float(np.mean(np.abs(_scene(a) - _scene(b)).sum(axis=-1) > tol))
 
 
+def _leave(browser, viewer):
+    """Disconnect the browser before the viewer closes (the server then stops at once)."""
+    browser.open("about:blank")
+    deadline = time.monotonic() + 10.0
+    while viewer.server.get_clients() and time.monotonic() < deadline:
+        time.sleep(0.05)
+
+
 @pytest.fixture(scope="module")
 def browser():
     b = Browser(width=1100, height=720)
@@ -62,11 +71,12 @@ def ur5e_view(browser):
         browser.open(v.url)
         assert wait_for_client(v), "the browser did not connect to the viewer"
         yield v
+        _leave(browser, v)
 
 
 def test_the_arm_is_drawn_and_follows_q(browser, ur5e_view):
     v = ur5e_view
-    with_arm = browser.render(v)
+    with_arm = browser.settled(v)
     _shot("ur5e", browser)
     v.arm_visible = False
     empty = browser.render(v)
@@ -117,12 +127,14 @@ def test_an_imported_urdf_shows_its_meshes(browser):
         _shot("ur10_meshes", browser)
         v.arm_visible = False
         empty = browser.render(v)
+        _leave(browser, v)
     assert _changed(meshes, empty) > 0.005
     with rc.viewer.Viewer(chain, q, meshes=False) as v:
         assert v.meshes_drawn == 0
         browser.open(v.url)
         assert wait_for_client(v)
-        capsules = browser.render(v)
+        capsules = browser.settled(v)
+        _leave(browser, v)
     # the same arm drawn from its meshes and as capsules: different pictures
     assert _changed(meshes, capsules) > 0.005
 
@@ -138,11 +150,12 @@ def test_a_replay_shows_the_run_with_a_time_slider(browser):
         v.replay(run)
         browser.open(v.url)
         assert wait_for_client(v)
-        start = browser.render(v)
+        start = browser.settled(v)
         assert "status" in v.text and "path error" in v.text and "|q̇|/vmax" in v.text
         v.seek(run.t[-1])
         end = browser.render(v)
         _shot("replay", browser)
         assert f"t = {run.t[-1]:.3f} s" in v.text
         np.testing.assert_allclose(v.q, run.q[-1])
+        _leave(browser, v)
     assert _changed(start, end) > 0.001
