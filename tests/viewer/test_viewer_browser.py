@@ -52,7 +52,7 @@ def _changed(a, b, tol=30.0):
 def _leave(browser, viewer):
     """Disconnect the browser before the viewer closes (the server then stops at once)."""
     browser.open("about:blank")
-    deadline = time.monotonic() + 10.0
+    deadline = time.monotonic() + 1.0
     while viewer.server.get_clients() and time.monotonic() < deadline:
         time.sleep(0.05)
 
