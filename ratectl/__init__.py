@@ -18,10 +18,11 @@ The package follows the data flow of a control cycle, one subpackage per stage:
 * `ratectl.execution` — `follow`, `run` (real time, on a driver) and the
   `Execution` record;
 * `ratectl.interop` — MuJoCo and mink;
+* `ratectl.viewer` — a live 3-D view in the browser (viser, the ``view`` extra);
 * `ratectl.cli` — the ``ratectl`` command and its demo.
 
 The core (model, kinematics, spatial, errors) is imported eagerly; the rest on first
-use, so ``import ratectl`` stays cheap and optional extras (matplotlib, mujoco) are
+use, so ``import ratectl`` stays cheap and optional extras (matplotlib, mujoco, viser) are
 only needed by the functions that use them.
 """
 
@@ -64,7 +65,7 @@ _LAZY_ATTRS = {
     "Execution": "execution",
 }
 _LAZY_MODULES = ("io", "singularity", "solvers", "tasks", "collision", "control", "paths", "planning",
-                 "drivers", "execution", "interop", "cli")
+                 "drivers", "execution", "interop", "viewer", "cli")
 
 __all__ = [
     "DH", "MDH", "Chain", "Joint", "Limits", "errors", "kinematics", "robots", "spatial",

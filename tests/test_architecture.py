@@ -33,6 +33,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("drivers",),
     ("execution",),
     ("interop",),
+    ("viewer",),
     ("cli",),
 ]
 RANK = {name: rank for rank, names in enumerate(LAYERS) for name in names}

@@ -7,6 +7,8 @@
     ratectl jacobian ur5e --q 0 -1.2 1.4 -1.8 -1.57 0.3
     ratectl singularity ur5e --q 0 -1.2 1.4 -1.8 0 0.3
     ratectl scan ur5e --samples 100000    # singularity statistics over random configurations
+    ratectl view ur5e                     # the arm live in the browser: sliders, drag-to-servo
+    ratectl demo --view                   # the demo's five methods side by side in the browser
 
 ``ARM`` is a built-in arm (``ratectl.robots.BUILTIN``: ur5e, panda, puma560, stanford,
 iiwa7, rpr, planar2r) or a ``.urdf`` / MJCF ``.xml`` file (``--tip`` chooses the tool
@@ -349,6 +351,59 @@ def _cmd_demo(args) -> int:
         else:
             print(f"\nplot written to {out}")
     print(f"total time {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    if args.view:
+        viewer = _open_viewer(comp.scenario.chain, comp.scenario.q0, port=args.port,
+                              path=comp.scenario.path)
+        with viewer:
+            main_run = next((r for r in comp.results if r.method == "governor"), comp.results[0])
+            others = {r.method: r for r in comp.results if r is not main_run}
+            viewer.replay(main_run, others=others, play=True)
+            _serve(viewer, args.seconds, "the five methods, side by side, on one time slider")
+    return 0
+
+
+def _open_viewer(chain, q, **options):
+    try:
+        from ..viewer import Viewer
+    except RatectlError as exc:
+        raise _Fail(str(exc)) from None
+    return Viewer(chain, q, **options)
+
+
+def _serve(viewer, seconds: float | None, what: str, step: Callable[[], None] | None = None,
+           dt: float = 0.01) -> None:
+    """Print the viewer's address, then call ``step`` every ``dt`` until ``seconds`` passed
+    (or Ctrl-C)."""
+    if seconds is not None and not seconds >= 0:
+        raise _Fail(f"--seconds must be a duration >= 0 in seconds, got {seconds:g}")
+    print(f"ratectl: view of {what} at {viewer.url}  (Ctrl-C to stop)", flush=True)
+    end = math.inf if seconds is None else time.monotonic() + seconds
+    next_time = time.monotonic()
+    while time.monotonic() < end:
+        if step is not None:
+            step()
+        next_time += dt
+        time.sleep(max(0.0, min(next_time - time.monotonic(), end - time.monotonic())))
+
+
+def _cmd_view(args) -> int:
+    chain = load_arm(args.arm, tip=args.tip)
+    q = parse_q(args.q, chain, degrees=args.deg, seed=args.seed, warn=_warner(args.command))
+    from ..control import ResolvedRateController
+
+    viewer = _open_viewer(chain, q, port=args.port, sliders=True)
+    with viewer:
+        servo = viewer.server.gui.add_checkbox("servo to the target", initial_value=bool(args.servo))
+        ctrl = ResolvedRateController(chain)
+        dt = 0.01
+
+        def step() -> None:
+            if servo.value:
+                cmd = ctrl.step(viewer.q, target=viewer.target, dt=dt)
+                viewer.update(cmd.q_next, command=cmd)
+
+        _serve(viewer, args.seconds, f"{chain.name} (drag the target, tick 'servo to the target')",
+               step, dt)
     return 0
 
 
@@ -399,6 +454,14 @@ def _demo_arms():
     return DEMO_ARMS
 
 
+def _view_args(sp: argparse.ArgumentParser) -> None:
+    """The options of a command that serves the browser view."""
+    sp.add_argument("--port", type=_int_in(0, 65535, "a port"), default=None,
+                    help="TCP port of the view (default: a free one; the address is printed)")
+    sp.add_argument("--seconds", type=_finite_float, default=None,
+                    help="stop the view after this many seconds (default: run until Ctrl-C)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argparse parser of the ``ratectl`` command."""
     arms = ", ".join(robots.BUILTIN)
@@ -438,7 +501,22 @@ def build_parser() -> argparse.ArgumentParser:
                     help=f"control period in seconds, {DEMO_DT_RANGE[0]:g} to {DEMO_DT_RANGE[1]:g} "
                          "(default 0.001)")
     sp.add_argument("--fast", action="store_true", help="coarser period (2 ms) for a quicker run")
+    sp.add_argument("--view", action="store_true",
+                    help="replay the five methods side by side in the browser (needs the view extra)")
+    _view_args(sp)
     sp.set_defaults(func=_cmd_demo)
+
+    sp = sub.add_parser(
+        "view", help="the arm live in the browser: joint sliders, singularity report, drag-to-servo",
+        description="Serve a 3-D view of the arm on this machine (open the printed address in a "
+                    "browser): move the joints with sliders, read sigma_min and the kind of "
+                    "singularity with arrows along the lost directions, and tick 'servo to the "
+                    "target' to make the arm follow the target you drag (resolved-rate control "
+                    "at 100 Hz). Needs the view extra: pip install -e '.[view]'.")
+    arm_args(sp, with_q=True)
+    sp.add_argument("--servo", action="store_true", help="start with servo to the target on")
+    _view_args(sp)
+    sp.set_defaults(func=_cmd_view)
 
     sp = sub.add_parser("info", help="describe an arm: DH table, limits, structure",
                         description="Print an arm's kinematic table, joint limits, reach, "

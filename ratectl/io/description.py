@@ -26,8 +26,8 @@ from ..arrays import read_only
 from ..errors import ImportModelError
 from ..spatial import transform
 
-__all__ = ["JointDescription", "ModelDescription", "axis_rotation", "unit_axis", "movable_joint",
-           "MAX_LENGTH"]
+__all__ = ["JointDescription", "ModelDescription", "VisualDescription", "SHAPES", "axis_rotation",
+           "unit_axis", "movable_joint", "MAX_LENGTH"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -51,9 +51,50 @@ class JointDescription:
             object.__setattr__(self, name, read_only(getattr(self, name)))
 
 
+#: Shapes of link geometry (`VisualDescription.shape`).
+SHAPES = ("mesh", "box", "cylinder", "sphere")
+
+
+@dataclass(frozen=True, kw_only=True)
+class VisualDescription:
+    """One piece of a link's geometry as a model file gives it, placed on the chain.
+
+    Attributes:
+        link: the link it belongs to.
+        role: ``"visual"`` or ``"collision"`` (the element it came from).
+        frame: the chain frame it moves with: 0 for the base, k for the frame after
+            joint k (``Chain.frames(q)[..., k, :, :]``).
+        origin: its pose in that frame (4×4; fixed joints and the element's ``<origin>``
+            folded in).
+        shape: one of `SHAPES`.
+        size: ``mesh``: the scale (sx, sy, sz); ``box``: edge lengths (x, y, z) [m];
+            ``cylinder``: (radius, length) [m] along its z axis; ``sphere``: (radius,) [m].
+        filename: the mesh file name as written in the model (``package://...``,
+            relative or absolute); None for other shapes.
+        path: the mesh file found on disk for ``filename``, or None when it was not
+            found. Readers only look the file up; they never open it.
+        rgba: the material colour (red, green, blue, alpha in 0…1), or None.
+    """
+
+    link: str
+    role: str
+    frame: int
+    origin: np.ndarray
+    shape: str
+    size: tuple[float, ...]
+    filename: str | None = None
+    path: str | None = None
+    rgba: tuple[float, float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "origin", read_only(self.origin))
+        object.__setattr__(self, "size", tuple(float(x) for x in self.size))
+
+
 @dataclass(frozen=True, kw_only=True)
 class ModelDescription:
-    """The serial chain a model file describes: its joints, tool transform and name.
+    """The serial chain a model file describes: its joints, tool transform, name and
+    the geometry of its links (``visuals``, empty when the reader keeps none).
 
     ``label`` names the source in messages (a file path, ``"<URDF string>"``, ...).
     ``links`` lists the named frames rigidly attached to the chain, each as
@@ -66,12 +107,14 @@ class ModelDescription:
     name: str
     label: str
     links: tuple[tuple[str, int, np.ndarray], ...] = ()
+    visuals: tuple[VisualDescription, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "tool", read_only(self.tool))
         object.__setattr__(self, "joints", tuple(self.joints))
         object.__setattr__(self, "links", tuple((str(nm), int(k), read_only(T))
                                                 for nm, k, T in self.links))
+        object.__setattr__(self, "visuals", tuple(self.visuals))
 
 
 def axis_rotation(axis: ArrayLike) -> np.ndarray:

@@ -2,8 +2,10 @@
 
 URDF is parsed with `xml.etree.ElementTree` behind `parse_xml_safely`
 (no document type or entity declarations: nothing expands, no external reference is
-followed). Mesh files, ``package://`` URIs and the ``<mujoco>`` extension element are
-ignored and never opened. Fixed joints are folded into the next moving joint's ``pre``
+followed). The ``<mujoco>`` extension element is ignored. The links' ``<visual>`` and
+``<collision>`` geometry is kept (`VisualDescription`, for drawing the arm): mesh
+file names (``package://``, ``file://``, relative or absolute) are looked up on disk
+(`find_mesh`) but never opened by the reader. Fixed joints are folded into the next moving joint's ``pre``
 or, after the last one, into the tool transform; the base is the base link.
 
 Everything that cannot become a serial chain raises
@@ -13,22 +15,32 @@ name the element at fault (for example ``"joint 'finger_2'"``).
 
 from __future__ import annotations
 
+import math
+import os
+import pathlib
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import ImportModelError
 from ..spatial import rotation_from_rpy, transform
-from .description import MAX_LENGTH, JointDescription, ModelDescription, movable_joint, unit_axis
+from .description import (
+    MAX_LENGTH,
+    JointDescription,
+    ModelDescription,
+    VisualDescription,
+    movable_joint,
+    unit_axis,
+)
 from .xml import float_attr, floats, parse_xml_safely, read_source
 
 if TYPE_CHECKING:
     from ..paths.base import Path
 
-__all__ = ["parse_urdf"]
+__all__ = ["parse_urdf", "find_mesh"]
 
 _URDF_MOVABLE = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
 _URDF_UNSUPPORTED = {"floating": "a floating joint has 6 degrees of freedom",
@@ -61,7 +73,7 @@ def parse_urdf(path: Path, *, tip: str | None = None, base_link: str | None = No
             planar joints, mimic joints on the chain, unknown joint types, bad
             numbers; the ``element`` attribute names the element at fault.
     """
-    data, label, _ = read_source(path, "URDF")
+    data, label, directory = read_source(path, "URDF")
     root = parse_xml_safely(data, label=label)
     if root.tag != "robot":
         raise ImportModelError(f"{label}: the root element must be <robot>, got <{root.tag}>",
@@ -78,8 +90,9 @@ def parse_urdf(path: Path, *, tip: str | None = None, base_link: str | None = No
         raise ImportModelError(f"{label}: no revolute, continuous or prismatic joint between "
                                f"{base_link!r} and {tip!r}", element=f"link {tip!r}")
     rname = name if name is not None else (root.get("name") or "urdf")
+    visuals = _link_geometry(root, tree, base_link, path_joints, directory)
     return ModelDescription(joints=tuple(chain_joints), tool=A, name=rname, label=label,
-                            links=tuple(links))
+                            links=tuple(links), visuals=visuals)
 
 
 @dataclass
@@ -330,3 +343,154 @@ def _urdf_limits(el: ET.Element, jtype: str, what: str, label: str):
         raise ImportModelError(f"{label}: {what} <limit lower={lo} upper={hi}>: lower must be below "
                                "upper", element=what)
     return (lo, hi), vmax
+
+
+# --------------------------------------------------------------------------- link geometry
+def _link_geometry(root: ET.Element, tree: _Tree, base_link: str, path_joints: list[str],
+                   directory: pathlib.Path | None) -> tuple[VisualDescription, ...]:
+    """The ``<visual>`` and ``<collision>`` geometry of every link below ``base_link``, placed
+    on the chain frame it moves with. Joints off the chain (a gripper's fingers) are drawn
+    at zero; geometry that cannot be read (a bad number, an unknown shape) is left out —
+    drawing is never a reason to refuse a model."""
+    frame_of_joint = {}
+    k = 0
+    for jname in path_joints:
+        if tree.joints[jname].get("type") in _URDF_MOVABLE:
+            k += 1
+            frame_of_joint[jname] = k
+    place: dict[str, tuple[int, np.ndarray]] = {base_link: (0, np.eye(4))}
+    stack = [base_link]
+    while stack:
+        link = stack.pop()
+        frame, T = place[link]
+        for child in tree.children.get(link, []):
+            if child in place:  # pragma: no cover - a tree has no second path
+                continue
+            jname = tree.parent_joint[child]
+            if jname in frame_of_joint:
+                place[child] = (frame_of_joint[jname], np.eye(4))
+            else:
+                try:
+                    O = _urdf_origin(tree.joints[jname].find("origin"), f"joint {jname!r}")
+                except ImportModelError:
+                    continue
+                place[child] = (frame, T @ O)
+            stack.append(child)
+    colours = _materials(root)
+    out: list[VisualDescription] = []
+    for el in root.findall("link"):
+        lname = el.get("name")
+        if lname not in place:
+            continue
+        frame, T = place[lname]
+        for role in ("visual", "collision"):
+            for g in el.findall(role):
+                v = _geometry(g, lname, role, frame, T, colours, directory)
+                if v is not None:
+                    out.append(v)
+    return tuple(out)
+
+
+def _materials(root: ET.Element) -> dict[str, tuple[float, float, float, float]]:
+    """Named ``<material><color rgba>`` entries of the robot (URDF lets links refer to them)."""
+    out = {}
+    for m in root.findall("material"):
+        c = _rgba(m)
+        if m.get("name") and c is not None:
+            out[str(m.get("name"))] = c
+    return out
+
+
+def _rgba(material: ET.Element | None) -> tuple[float, float, float, float] | None:
+    if material is None or (c := material.find("color")) is None:
+        return None
+    try:
+        v = floats(c.get("rgba"), 4, default=[0.0, 0.0, 0.0, -1.0], what="<color rgba>")
+    except ImportModelError:
+        return None
+    if v[3] < 0.0:
+        return None
+    r, g, b, a = (float(x) for x in np.clip(v, 0.0, 1.0))
+    return (r, g, b, a)
+
+
+def _geometry(el: ET.Element, link: str, role: str, frame: int, T: np.ndarray, colours: dict,
+              directory: pathlib.Path | None) -> VisualDescription | None:
+    """One ``<visual>``/``<collision>`` element, or None when it cannot be drawn."""
+    geo = el.find("geometry")
+    shape = None if geo is None else next(iter(geo), None)
+    if shape is None:
+        return None
+    what = f"link {link!r} <{role}>"
+    try:
+        origin = T @ _urdf_origin(el.find("origin"), what)
+        filename = path = None
+        size: Any
+        if shape.tag == "mesh":
+            filename = shape.get("filename") or ""
+            size = floats(shape.get("scale"), 3, default=[1.0, 1.0, 1.0], what=f"{what} <mesh scale>")
+            found = find_mesh(filename, directory)
+            path = None if found is None else str(found)
+        elif shape.tag == "box":
+            size = floats(shape.get("size"), 3, default=[math.nan] * 3, what=f"{what} <box size>")
+        elif shape.tag == "cylinder":
+            size = [float_attr(shape, "radius", what=what), float_attr(shape, "length", what=what)]
+        elif shape.tag == "sphere":
+            size = [float_attr(shape, "radius", what=what)]
+        else:
+            return None
+    except ImportModelError:
+        return None
+    if size is None or any(x is None for x in size) or not np.all(np.isfinite(np.asarray(size, float))):
+        return None
+    material = el.find("material")
+    rgba = _rgba(material)
+    if rgba is None and material is not None:
+        rgba = colours.get(material.get("name") or "")
+    return VisualDescription(link=link, role=role, frame=frame, origin=origin, shape=shape.tag,
+                             size=tuple(float(x) for x in size), filename=filename, path=path,
+                             rgba=rgba)
+
+
+def find_mesh(filename: str, directory: pathlib.Path | str | None = None) -> pathlib.Path | None:
+    """The file a URDF mesh name refers to, or None when it is not found.
+
+    * ``package://PKG/REST``: ``REST`` inside the package directory ``PKG``, looked for
+      among the URDF's directory and its parents (a parent named ``PKG``, or a ``PKG``
+      folder inside one), then in the directories of ``ROS_PACKAGE_PATH``;
+    * ``file:///abs/path`` and absolute paths: as given;
+    * relative names: relative to the URDF's directory (None for a URDF given as text).
+
+    The file is looked up (``is_file``), never opened.
+    """
+    if not filename:
+        return None
+    candidates: list[pathlib.Path] = []
+    if filename.startswith("package://"):
+        pkg, _, rest = filename[len("package://"):].partition("/")
+        if not pkg or not rest:
+            return None
+        roots: list[pathlib.Path] = []
+        if directory is not None:
+            d = pathlib.Path(directory).resolve()
+            roots.extend([d, *d.parents])
+        roots.extend(pathlib.Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p)
+        for r in roots:
+            if r.name == pkg:
+                candidates.append(r / rest)
+            candidates.append(r / pkg / rest)
+    elif filename.startswith("file://"):
+        candidates.append(pathlib.Path(filename[len("file://"):]))
+    else:
+        p = pathlib.Path(filename)
+        if p.is_absolute():
+            candidates.append(p)
+        elif directory is not None:
+            candidates.append(pathlib.Path(directory) / p)
+    for c in candidates:
+        try:
+            if c.is_file():
+                return c
+        except (OSError, ValueError):
+            continue
+    return None

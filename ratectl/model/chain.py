@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 from .. import kinematics
 from ..arrays import read_only
 from ..errors import ImportModelError, InputError, ModelError
-from ..io.description import ModelDescription
+from ..io.description import ModelDescription, VisualDescription
 from .joints import DH, MDH, Joint, check_transform
 
 __all__ = ["Chain"]
@@ -40,7 +40,8 @@ class Chain:
     def __init__(self, joints: Sequence[Joint], *, base: ArrayLike | None = None,
                  tool: ArrayLike | None = None, name: str = "chain", table: tuple | None = None,
                  characteristic_length: float | None = None,
-                 links: Sequence[tuple[str, int, ArrayLike]] | None = None):
+                 links: Sequence[tuple[str, int, ArrayLike]] | None = None,
+                 visuals: Sequence[VisualDescription] = ()):
         joints = tuple(joints)
         if not joints:
             raise ModelError("a chain needs at least one joint", field="joints")
@@ -67,6 +68,7 @@ class Chain:
             raise ModelError("characteristic_length must be a positive length [m], "
                              f"got {characteristic_length!r}", field="characteristic_length")
         self._length = float(characteristic_length)
+        self._visuals = tuple(visuals)
         self._kernels: dict = {}
         self._links = _check_links(links, self._n)
         self._link_chains: dict[str, Chain | None] = {}
@@ -158,14 +160,15 @@ class Chain:
                                        element=jd.element) from None
         try:
             return cls(joints, tool=description.tool, name=description.name,
-                       links=description.links or None)
+                       links=description.links or None, visuals=description.visuals)
         except ModelError as exc:
             raise ImportModelError(f"{description.label}: {exc}", element=str(exc.field)) from None
 
     def with_tool(self, tool: ArrayLike) -> Chain:
         """The same chain with another tool transform (flange → tool, 4×4)."""
         return Chain(self._joints, base=self._base, tool=tool, name=self._name,
-                     table=self._table, characteristic_length=self._length, links=self._link_list())
+                     table=self._table, characteristic_length=self._length, links=self._link_list(),
+                     visuals=self._visuals)
 
     def with_limits(self, *, qlim: ArrayLike | None = None, vmax: ArrayLike | None = None,
                     amax: ArrayLike | None = None, jmax: ArrayLike | None = None) -> Chain:
@@ -226,12 +229,14 @@ class Chain:
             table = tuple(dataclasses.replace(r, **{key: c[k] for key, c in cols.items()})
                           for k, r in enumerate(table))
         return Chain(joints, base=self._base, tool=self._tool, name=self._name, table=table,
-                     characteristic_length=self._length, links=self._link_list())
+                     characteristic_length=self._length, links=self._link_list(),
+                     visuals=self._visuals)
 
     def with_base(self, base: ArrayLike) -> Chain:
         """The same chain with another base transform (world → frame 0, 4×4)."""
         return Chain(self._joints, base=base, tool=self._tool, name=self._name,
-                     table=self._table, characteristic_length=self._length, links=self._link_list())
+                     table=self._table, characteristic_length=self._length, links=self._link_list(),
+                     visuals=self._visuals)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -307,6 +312,13 @@ class Chain:
         J = np.zeros(batch + (6, self._n))
         J[..., :k] = Jk
         return T, J
+
+    @property
+    def visuals(self) -> tuple[VisualDescription, ...]:
+        """The links' geometry read from a model file (URDF ``<visual>``/``<collision>``),
+        each placed on a chain frame (`ratectl.io.description.VisualDescription`); empty
+        for chains built from DH tables. Used to draw the arm (`ratectl.viewer`)."""
+        return self._visuals
 
     @property
     def table(self) -> tuple | None:
