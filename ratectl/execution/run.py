@@ -459,6 +459,8 @@ class _Loop:
         # the loop's robot clock: time of the last cycle and of the last fresh state [s]
         self.t_prev = 0.0
         self.t_fresh = 0.0
+        self.t_ref = 0.0  # robot time the reference was last evaluated [s]
+        self.q_used = state0.q  # the joint positions the last command was computed from
         self.first = True
         self.stamp0 = state0.stamp
         self.halting = ""  # the reason of a controller halt being decelerated
@@ -564,15 +566,25 @@ class _Loop:
             self._watchdog(state, start, t_read)
             return False
         t, dt = self._clock(state, fresh, start)
+        dt_ref = t - self.t_ref  # robot time since the reference was last evaluated
         if fresh:
-            dt_ref = t - self.t_fresh  # robot time since the last fresh state (the progress)
             self.t_fresh = t
-            cmd = self._step(state, t, dt, dt_ref)
+            q_now: np.ndarray = state.q if state.finite else np.full(self.n, math.nan)
+        else:
+            q_now = self.q_used + self.qd_cmd * dt  # the last state advanced by the command sent
+        if fresh or (start - self.last_fresh_wall <= 0.5 * self.timeout and not self.halting):
+            # a stale cycle steps the controller on the predicted state: its limits brake
+            # from where the command has taken the arm (the reference's rate holds)
+            cmd = self._step(q_now, fresh, state.finite, t, dt, dt_ref)
             if cmd is None:
                 return False
+            self.t_ref = t
+            self.q_used = q_now
         else:
-            # no fresh state: what the controller brakes to — never further toward a limit
-            cmd = self.ctrl.brake(dt, reason="no fresh measured state (a dropped or late sample): braking")
+            # stale for longer than half the watchdog: what the controller brakes to
+            cmd = self.ctrl.brake(dt, reason="no fresh measured state for "
+                                  f"{(start - self.last_fresh_wall) * 1e3:.0f} ms: braking")
+            self.q_used = q_now
         t_ctrl = time.perf_counter()
         self.qd_cmd, self.status, self.sigma_min = cmd.qd, cmd.status, cmd.sigma_min
         self.reason_now, self.q_next = cmd.reason, cmd.q_next
@@ -611,30 +623,27 @@ class _Loop:
             "halted",
         )
 
-    def _step(self, state: RobotState, t: float, dt: float, dt_ref: float) -> Command | None:
-        """The reference at robot time t and the controller's step on the measured state over
-        the measured period ``dt`` (a non-finite state latches the controller's safe halt; a
-        halt of the loop's own — a robot that does not follow — brakes); None when the run
-        ends here."""
+    def _step(self, q: np.ndarray, fresh: bool, finite: bool, t: float, dt: float,
+              dt_ref: float) -> Command | None:
+        """The reference at robot time t and the controller's step on the joints ``q`` (measured,
+        or predicted on a stale cycle) over the measured period ``dt`` (a non-finite state
+        latches the controller's safe halt; a halt of the loop's own — a robot that does not
+        follow — brakes); None when the run ends here."""
         if self.halting and not getattr(self.ctrl, "halted", False):
             return self.ctrl.brake(dt, reason=self.halting)
         try:
-            xi = self.ref.at(t, dt_ref, state.q if state.finite else None, self.period)
+            xi = self.ref.at(t, dt_ref, q if (fresh and finite) else None, self.period)
         except Exception as exc:
             self._end(f"the reference raised {type(exc).__name__}: {exc}", "halted", recorded=False)
             return None
         if self.ref.mode == "twist" and xi is None and not self.halting:
             self._end("the twist stream ended", "completed", recorded=False)
             return None
-        q_in = state.q if state.finite else np.full(self.n, math.nan)
-        if not state.finite and not self.halting:
-            self.halting = (
-                f"non-finite measured state at t = {t:.4g} s "
-                f"({'q' if not np.all(np.isfinite(state.q)) else 'q̇ or stamp'})"
-            )
+        if not finite and not self.halting:
+            self.halting = f"non-finite measured state at t = {t:.4g} s (q, q̇ or stamp)"
         try:
             return self.ctrl.step(
-                q_in, target=self.ref.Td, twist=xi, qd_ff=self.ref.qd_ff, qdd_ff=self.ref.qdd_ff, dt=dt
+                q, target=self.ref.Td, twist=xi, qd_ff=self.ref.qd_ff, qdd_ff=self.ref.qdd_ff, dt=dt
             )
         except Exception as exc:
             self._end(f"the controller raised {type(exc).__name__}: {exc}", "halted", recorded=False)
