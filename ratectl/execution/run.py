@@ -3,11 +3,18 @@
 Every period ``1/rate_hz`` the loop
 
 1. reads the robot (``driver.read()``) — a *fresh* state is one whose stamp advanced;
-2. evaluates the reference at the robot's time t = stamp − stamp₀ (a path's pose and
-   feed-forward twist, a fixed target, or a twist stream);
-3. ``cmd = controller.step(q_measured, target=T_d(t), twist=ξ(t), dt=1/rate_hz)``;
-4. sends ``driver.command(cmd.qd)`` — on a stale cycle (no fresh state) the previous
-   command is sent again and the controller is not stepped;
+2. evaluates the reference at the robot's time t = stamp − stamp₀ (a path: the governor's
+   pose P(s) and joint feed-forward, the same `PathReference` as `follow`, its progress
+   re-timed from the measured joints so it never runs away from a lagging arm; a fixed
+   target; or a twist stream);
+3. ``cmd = controller.step(q_measured, target=T_d(t), twist=ξ(t), qd_ff=..., dt=dt)`` with dt
+   the robot's own period (the stamps' difference), so vmax and amax hold over the real
+   periods, not the nominal one;
+4. sends ``driver.command(cmd.qd)`` — on a stale cycle (no fresh state: a dropped or late
+   sample) the controller is stepped on the predicted state (the last one advanced by the
+   command sent), so its limits brake from where the command has taken the arm; stale for
+   longer than half the watchdog, the controller's brake (`ResolvedRateController.brake`) is
+   sent instead;
 5. sleeps until the next deadline ``t₀ + (k+1)/rate_hz``. It never busy-waits: a spinning
    loop holds Python's GIL and starves anything else in the process (a simulator's server
    thread, a robot library's receive thread). Deadlines are absolute, so an oversleep in
@@ -21,6 +28,9 @@ Safety (every way out stops the robot with ``driver.stop()`` and returns the rec
 * **watchdog** — no fresh state for longer than ``timeout``: halt at once (status
   ``"halted"``, reason ``"watchdog: ..."``). The decision is taken within ``timeout`` plus
   one period of the last fresh state;
+* **a robot that does not follow its command** (`ratectl.execution.following.FollowWatch`:
+  commanded against measured motion over ``follow_window``): the controller brakes to rest
+  (status ``"halted"``, the reason names the joint);
 * **a non-finite measured state** (NaN or inf in q or q̇): the controller's latched safe
   halt decelerates the last command to zero within the acceleration limits, then the
   robot is stopped;
@@ -313,16 +323,17 @@ def run(
     on_interrupt: str = "raise",
     governor: Governor | bool | None = True,
     path_tolerance: tuple[float, float] = (1e-3, math.radians(0.5)),
-    follow_window: float = 0.3,
+    follow_window: float = 0.5,
 ) -> Execution:
     """Run the resolved-rate controller on a robot in real time; returns an `Execution`.
 
     Give exactly one reference:
 
     * ``path`` — a `ratectl.paths.Path` starting at the robot's current tool pose
-      (within 1 mm / 0.01 rad; servo there first with ``target=path.start``): target
-      P(s(t)) and feed-forward twist dP/ds·ṡ(t) on the path's time law, then up to
-      ``settle`` seconds on the end pose until within ``tolerance``;
+      (within 1 mm / 0.01 rad; servo there first with ``target=path.start``): governed
+      by default (target P(s) and the planned joint velocity as feed-forward, the progress
+      re-timed from the measured state), then up to ``settle`` seconds on the end pose until
+      at rest within ``tolerance``; completed only if it stayed within ``path_tolerance``;
     * ``target`` — a 4×4 tool pose to servo to; ends when within ``tolerance``;
     * ``twist`` — a tool twist [v; ω] (6,) [m/s; rad/s], or a callable ``twist(t)`` of the
       time since the start [s] returning one, or None to end the stream.
@@ -342,13 +353,22 @@ def run(
             a terminal and the run may last longer than 2 s.
         on_interrupt: ``"raise"`` (re-raise Ctrl-C after stopping the robot, with the record
             as ``exc.execution``) or ``"return"`` (return the record).
+        governor: a path's timing, as in `follow`: True (default, a `Governor` planned from
+            the first measured state), a `Governor`, or False/None (the path's own time law).
+        path_tolerance: (position [m], orientation [rad]) a path run must stay within from
+            start to end to count as completed (measured on the measured poses).
+        follow_window: the window [s] over which commanded and measured motion are compared
+            (`FollowWatch`); 0 switches the check off.
 
     Returns:
         An `Execution` with source ``"run"``: ``q``/``q_measured`` the measured joint
         positions, ``qd_measured`` the measured velocities, ``qd``/``qdd`` the commanded
-        velocity and its change, tool poses fk(q_measured), the path (or target) errors, the
-        controller statuses, the robot's stamps, loop periods and overruns. ``info`` (a
-        read-only mapping) holds
+        velocity and its change, ``q_commanded`` the positions the commands lead to, tool
+        poses fk(q_measured), the path (or target) errors, the controller's ``statuses``,
+        ``reasons`` and ``kinds`` for every cycle, ``t`` the robot time of each cycle, the
+        robot's stamps, loop periods and overruns. ``info`` (a read-only mapping) holds
+        ``plan`` (a path's `GovernorPlan`, or None), ``twist_linear_error`` and
+        ``twist_angular_error`` (a twist stream: measured J q̇ against the stream, per cycle),
         ``reason`` (why the run ended), ``halt_delay`` (watchdog: time from the last fresh
         state to the halt decision [s]), ``timing`` (per-cycle read, control, command and
         total work times [s]) and ``stop_error`` (if ``driver.stop()`` failed).
@@ -424,7 +444,7 @@ class _Loop:
         timeout: float,
         tolerance: tuple[float, float],
         line: _StatusLine,
-        follow_window: float = 0.3,
+        follow_window: float = 0.5,
     ) -> None:
         self.driver, self.ctrl, self.ref, self.state0, self.line = driver, ctrl, ref, state0, line
         self.watch = _FollowWatch(driver.chain, follow_window)
