@@ -4,14 +4,16 @@ Over a sliding window of W seconds of robot time the watch compares, joint by jo
 displacement the loop commanded — the integral of the commanded velocity, each command held
 from the cycle it was sent until the next, Δq_cmd = Σ q̇_k (t_{k+1} − t_k) — with the
 displacement the robot measured, Δq = q(t) − q(t − W). A joint whose commanded displacement is
-at least ``min_motion`` and that covered less than ``ratio`` of it in its direction,
+at least ``min_motion`` and that moved less than ``ratio`` of it,
 
-    |Δq_cmd| ≥ min_motion   and   Δq · sign(Δq_cmd) < ratio · |Δq_cmd|,
+    |Δq_cmd| ≥ min_motion   and   |Δq| < ratio · |Δq_cmd|,
 
 is not following: a stalled or frozen joint, a robot held by a protective stop, a dead band
 the command cannot leave. Slower commands are not judged (friction and noise dominate
 there). A robot's latency passes: with the defaults (W = 0.5 s, ratio 0.25) a robot that starts
-150 ms late from rest has still covered about half of what was commanded.
+150 ms late from rest has still covered about half of what was commanded. A command counts for
+at most ``max_hold`` seconds: a robot that holds a velocity command only briefly (franky holds
+it 20 ms) stops by itself when the loop stalls, and the stall is not its fault.
 """
 
 from __future__ import annotations
@@ -35,10 +37,13 @@ class FollowWatch:
         chain: the arm (its joint names go into the message).
         window: W [s] of robot time; 0 switches the watch off.
         min_motion: the least commanded displacement judged [rad or m].
-        ratio: the share of it the measured displacement may miss.
+        ratio: the share of it the measured displacement must at least cover.
+        max_hold: the longest a command counts for [s].
     """
 
-    def __init__(self, chain: Chain, window: float, *, min_motion: float = 0.02, ratio: float = 0.25) -> None:
+    def __init__(self, chain: Chain, window: float, *, min_motion: float = 0.02, ratio: float = 0.25,
+                 max_hold: float = 0.01) -> None:
+        self.max_hold = float(max_hold)
         self.names = tuple(chain.joint_names)
         self.units = tuple("mm" if j.kind == "prismatic" else "mrad" for j in chain.joints)
         self.window, self.min_motion, self.ratio = float(window), float(min_motion), float(ratio)
@@ -53,7 +58,7 @@ class FollowWatch:
         (``dt``: unused, the periods come from the times). Returns "" or why the robot does
         not follow."""
         if self._t is not None:
-            self._cum = self._cum + self._qd * (t - self._t)
+            self._cum = self._cum + self._qd * min(t - self._t, self.max_hold)
         self._t, self._qd = t, np.array(qd_cmd, dtype=float)
         if not self.window > 0.0 or not np.all(np.isfinite(q)):
             return ""
@@ -66,7 +71,7 @@ class FollowWatch:
             return ""
         cmd = self._cum - c0
         meas = hist[-1][1] - q0
-        bad = (np.abs(cmd) >= self.min_motion) & (meas * np.sign(cmd) < self.ratio * np.abs(cmd))
+        bad = (np.abs(cmd) >= self.min_motion) & (np.abs(meas) < self.ratio * np.abs(cmd))
         if not bad.any():
             return ""
         j = int(np.argmax(np.where(bad, np.abs(cmd), -math.inf)))

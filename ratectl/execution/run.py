@@ -652,7 +652,7 @@ class _Loop:
         if self.halting and not getattr(self.ctrl, "halted", False):
             return self.ctrl.brake(dt, reason=self.halting)
         try:
-            xi = self.ref.at(t, dt_ref, q if (fresh and finite) else None, self.period)
+            xi = self.ref.at(t, dt_ref, q if (fresh and finite) else None, dt)
         except Exception as exc:
             self._end(f"the reference raised {type(exc).__name__}: {exc}", "halted", recorded=False)
             return None
@@ -679,7 +679,8 @@ class _Loop:
                 return True
         elif self.ref.on_end_pose:
             # a path ends at rest on its end pose (a target: on it, the controller's own arrival)
-            at_rest = self.ref.mode != "path" or float(np.max(np.abs(self.qd_cmd))) <= _END_SPEED
+            at_rest = (self.ref.mode != "path" or cmd.status == "target-reached"
+                       or float(np.max(np.abs(self.qd_cmd))) <= _END_SPEED)
             if cmd.position_error <= self.tolerance[0] and cmd.orientation_error <= self.tolerance[1] \
                     and at_rest:
                 self._end("reached the end pose within tolerance", "completed")
