@@ -679,8 +679,7 @@ class _Loop:
                 return True
         elif self.ref.on_end_pose:
             # a path ends at rest on its end pose (a target: on it, the controller's own arrival)
-            at_rest = (self.ref.mode != "path" or cmd.status == "target-reached"
-                       or float(np.max(np.abs(self.qd_cmd))) <= _END_SPEED)
+            at_rest = self.ref.mode != "path" or self._at_rest()
             if cmd.position_error <= self.tolerance[0] and cmd.orientation_error <= self.tolerance[1] \
                     and at_rest:
                 self._end("reached the end pose within tolerance", "completed")
@@ -699,6 +698,21 @@ class _Loop:
             self._end(f"{self.halting}; still moving {limit + 2.0:g} s in", "halted")
             return True
         return False
+
+    def _at_rest(self) -> bool:
+        """The command has (practically) come to rest: its tool twist J q̇ within K·tolerance,
+        linear and angular (the controller's own arrival rule, K its gain) — what the
+        proportional law asks at the tolerance, so friction that holds a joint just off the
+        pose does not keep the run waiting."""
+        qd = self.qd_cmd
+        if float(np.max(np.abs(qd))) <= _END_SPEED:
+            return True
+        if not np.all(np.isfinite(self.q_used)):
+            return False
+        xi = self.driver.chain.jacobian(self.q_used) @ qd
+        K = np.broadcast_to(np.asarray(getattr(self.ctrl, "gain", 10.0), dtype=float), (6,))
+        return bool(np.linalg.norm(xi[:3]) <= K[:3].max() * self.tolerance[0]
+                    and np.linalg.norm(xi[3:]) <= K[3:].max() * self.tolerance[1])
 
     def _report(self, now: float, t: float, cmd: Command | None) -> None:
         err = cmd.position_error * 1e3 if cmd is not None and self.ref.Td is not None else math.nan
