@@ -8,12 +8,18 @@ the deadline arithmetic. That rest is the overhead a driver loop adds to a bare
 ``controller.step``. Also printed: the loop periods (sleep accuracy) and the cost of
 building the record after the run.
 
-Run:  python benchmarks/bench_run.py [--seconds S] [--rate HZ]
+Then ``follow`` against ``rc.run`` on the demo's UR5e wrist line (0.01 rad from the wrist
+singularity): the path error, the limit ratios (|q̇|/vmax; |q̈|/amax over the robot's own
+periods) and the duration, on the scripted arm and on the MuJoCo driver, governed (the
+default) and on the path's time law.
+
+Run:  python benchmarks/bench_run.py [--seconds S] [--rate HZ] [--skip-overhead]
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -69,11 +75,55 @@ def one(arm, q0, mode: str, seconds: float, rate: float) -> dict:
     }
 
 
+def _row(name: str, ex, amax: np.ndarray, dt: float | None = None) -> str:
+    t = ex.t
+    gaps = np.diff(t) if dt is None else np.full(len(t) - 1, dt)
+    acc = float(np.max(np.abs(np.diff(ex.qd, axis=0)) / gaps[:, None] / amax))
+    return (f"| {name} | {'yes' if ex.completed else 'no'} | {ex.max_position_error * 1e3:.4f} | "
+            f"{math.degrees(ex.max_orientation_error):.4f} | {ex.velocity_ratio:.3f} | {acc:.3f} | "
+            f"{ex.duration:.3f} |")
+
+
+def compare(rate: float) -> None:
+    """follow against rc.run on the demo wrist line, scripted and MuJoCo drivers."""
+    from ratectl.cli import demo
+
+    sc = demo.wrist_line("ur5e")
+    arm, line, q0 = sc.chain, sc.path, sc.q0
+    print(f"\nfollow vs rc.run: the demo's UR5e wrist line ({line.length:.2f} m, closest |q5| = "
+          f"{sc.min_q5:.3f} rad), {rate:g} Hz\n")
+    print("| how | completed | path error [mm] | orientation error [°] | max \\|q̇\\|/vmax "
+          "| max \\|q̈\\|/amax (real periods) | duration [s] |")
+    print("|---|---|---|---|---|---|---|")
+    f = rc.follow(arm, line, q0, dt=1.0 / rate)
+    print(_row("rc.follow (governor)", f, arm.amax, dt=1.0 / rate))
+    for gov in (True, False):
+        ex = rc.run(ScriptedDriver(arm, q0), path=line, rate_hz=rate, governor=gov)
+        print(_row(f"rc.run, scripted ({'governor' if gov else 'time law'})", ex, arm.amax)
+              + f" ×{ex.duration / f.duration:.2f} of follow; longest period {ex.period_max * 1e3:.1f} ms; "
+              f"{ex.message[:60]}")
+    try:
+        from ratectl.interop.mujoco import MujocoDriver
+    except ImportError:
+        print("(MuJoCo not installed: no MuJoCo rows)")
+        return
+    for gov in (True, False):
+        drv = MujocoDriver(arm, q0=q0, period=1.0 / rate)
+        ex = rc.run(drv, path=line, rate_hz=rate, governor=gov)
+        print(_row(f"rc.run, MuJoCo position servos ({'governor' if gov else 'time law'})", ex, arm.amax)
+              + f" ×{ex.duration / f.duration:.2f} of follow")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=3.0)
     ap.add_argument("--rate", type=float, default=1000.0)
+    ap.add_argument("--compare-rate", type=float, default=500.0, help="rate of the follow/run comparison")
+    ap.add_argument("--skip-overhead", action="store_true", help="only the follow/run comparison")
     args = ap.parse_args()
+    if args.skip_overhead:
+        compare(args.compare_rate)
+        return
     arm = rc.robots.panda()
     q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
     ur5e, qr = rc.robots.ur5e(), np.array([0.1, -1.2, 1.4, -1.6, 0.3, 0.2])
@@ -99,6 +149,7 @@ def main() -> None:
               f"{r['record'] * 1e3:7.1f}")
     print("\nloop overhead = cycle work − driver.read − driver.command − controller.step (fresh cycles): "
           "the stamp/watchdog bookkeeping, the reference, the recording and the deadline arithmetic.")
+    compare(args.compare_rate)
 
 
 if __name__ == "__main__":

@@ -348,6 +348,15 @@ class ResolvedRateController:
         """The last commanded joint velocity."""
         return self._qd.copy()
 
+    def brake(self, dt: float, *, reason: str = "braking: no fresh measured state") -> Command:
+        """One period of the safe halt without a measurement, not latched: the previous q̇
+        decelerates toward zero, each joint by amax_i·dt (with smoothing, on its jerk-limited
+        stop), continuing from the last commanded position. For a loop whose robot sent no
+        fresh state this period (a dropped sample): the command then never extends a motion
+        toward a limit. The next `step` resumes from the braked q̇. ``dt``: the period [s]."""
+        dt = positive_number("dt", dt, unit="[s]")
+        return self._halt(np.full(self._n, math.nan), dt, reason)
+
     @property
     def halted(self) -> bool:
         """True while a latched halt (non-finite input) is in force; cleared by `reset`."""

@@ -40,6 +40,9 @@ class ScriptedDriver:
         stale_after: from this time on the server freezes: ``read()`` returns the same sample
             forever (its stamp no longer advances); the arm keeps moving unseen.
         nan_after: from this time on the measured q contains NaN.
+        freeze_joint: ``(j, t)``: from time t on, joint j (0-based) no longer moves, whatever
+            is commanded — a stalled joint, a robot that does not follow its command; it is
+            measured standing still (q̇ = 0).
         fail_after: from this time on ``read()`` and ``command()`` raise a bare
             ``ConnectionResetError`` — deliberately *not* a ratectl error, as a careless driver
             would, so that tests can check the loop contains it.
@@ -61,6 +64,7 @@ class ScriptedDriver:
         stale_after: float | None = None,
         nan_after: float | None = None,
         fail_after: float | None = None,
+        freeze_joint: tuple[int, float] | None = None,
         seed: int = 0,
     ) -> None:
         if not isinstance(chain, Chain):
@@ -85,6 +89,17 @@ class ScriptedDriver:
         self.stale_after = math.inf if stale_after is None else float(stale_after)
         self.nan_after = math.inf if nan_after is None else float(nan_after)
         self.fail_after = math.inf if fail_after is None else float(fail_after)
+        self.freeze_joint: tuple[int, float] | None = None
+        if freeze_joint is not None:
+            try:
+                j, t_freeze = int(freeze_joint[0]), float(freeze_joint[1])
+            except (TypeError, ValueError, IndexError):
+                raise InputError(f"freeze_joint must be (joint index, time [s]), got {freeze_joint!r}",
+                                 argument="freeze_joint", value=freeze_joint) from None
+            if not 0 <= j < chain.dof:
+                raise InputError(f"freeze_joint: joint index must be in 0..{chain.dof - 1}, got {j}",
+                                 argument="freeze_joint", value=freeze_joint)
+            self.freeze_joint = (j, t_freeze)
         self._rng = np.random.default_rng(seed)
         self._last: RobotState | None = None
         self.commands: list[tuple[float, np.ndarray]] = []
@@ -102,10 +117,21 @@ class ScriptedDriver:
         return now - self._t0
 
     def _advance(self, t: float) -> None:
-        """Integrate the commanded velocity up to time t."""
+        """Integrate the commanded velocity up to time t (a frozen joint stands still)."""
         if self._t_cmd is not None and t > self._t_cmd:
-            self._q = self._q + self._qd * (t - self._t_cmd)
+            moved = self._qd * (t - self._t_cmd)
+            if self.freeze_joint is not None:
+                j, t_f = self.freeze_joint
+                moved[j] = self._qd[j] * max(0.0, min(t, t_f) - self._t_cmd)
+            self._q = self._q + moved
         self._t_cmd = t
+
+    def _measured_qd(self, t: float) -> np.ndarray:
+        if self.freeze_joint is None or t < self.freeze_joint[1]:
+            return self._qd
+        qd = self._qd.copy()
+        qd[self.freeze_joint[0]] = 0.0
+        return qd
 
     def read(self) -> RobotState:
         """The arm's state now (see the class docstring for the faults)."""
@@ -123,7 +149,7 @@ class ScriptedDriver:
         q = self._q.copy()
         if t >= self.nan_after:
             q[0] = math.nan
-        self._last = RobotState(stamp=t, q=q, qd=self._qd)
+        self._last = RobotState(stamp=t, q=q, qd=self._measured_qd(t))
         return self._last
 
     def command(self, qd: ArrayLike) -> None:

@@ -32,6 +32,7 @@ from ..paths import Path
 from ..planning import Governor, ik
 from ..spatial import pose_error, rotation_angle
 from .record import Execution
+from .reference import PathReference
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -100,10 +101,9 @@ def follow(chain: Chain, path: Path, q0: ArrayLike, *, dt: float,
         gov = governor if isinstance(governor, Governor) else Governor(check_jerk=ctrl.filter is not None)
         plan = gov.plan(chain, path, q, dt=dt)
         info["plan"] = plan
-    # where the schedule ends: the path end, or where the governor had to stop
-    T_end = path.pose_at(float(plan.s[-1])) if plan is not None and not plan.joint_path.complete \
-        else path.end
-    rec = _run(chain, path, q, ctrl, plan, T_end, dt=dt, settle=settle, tolerance=tolerance,
+    ref = PathReference(path, plan)
+    T_end = ref.end_pose  # the path end, or where the governor had to stop
+    rec = _run(chain, ref, q, ctrl, T_end, dt=dt, settle=settle, tolerance=tolerance,
                record_kinds=record_kinds)
     return _evaluate(chain, path, rec, plan, gov, T_end, info, dt=dt, settle=settle, tolerance=tolerance,
                      path_tolerance=path_tolerance)
@@ -172,23 +172,16 @@ def _options(governor, settle, tolerance, path_tolerance):
     return settle, pairs[0], pairs[1]
 
 
-def _command(ctrl, path, plan, k, q, dt):
-    """The controller command of schedule step k: the plan's feed-forward and pose, or the time law."""
-    if plan is None:
-        s, sd, _ = path.progress(k * dt)
-        return s, ctrl.step(q, target=path.pose_at(s), twist=path.twist_at(s, sd=sd), dt=dt)
-    s = float(plan.s[k])
-    if ctrl.filter is None:
-        return s, ctrl.step(q, target=path.pose_at(s), qd_ff=plan.qd_ff[k], dt=dt)
-    # continuous velocity and acceleration of the plan at the end of the period
-    k1 = min(k + 1, len(plan) - 1)
-    v = 0.5 * (plan.qd_ff[k] + plan.qd_ff[k1])
-    a = (plan.qd_ff[k1] - plan.qd_ff[k]) / dt
-    return s, ctrl.step(q, target=path.pose_at(s), qd_ff=v, qdd_ff=a, dt=dt)
+def _command(ctrl, ref: PathReference, q, dt):
+    """The controller command at the reference's schedule time: the plan's feed-forward and
+    pose, or the path's time law (`PathReference.at`)."""
+    r = ref.at(dt, smoothed=ctrl.filter is not None)
+    return r.s, ctrl.step(q, target=r.pose, twist=r.twist, qd_ff=r.qd_ff, qdd_ff=r.qdd_ff, dt=dt)
 
 
-def _run(chain, path, q, ctrl, plan, T_end, *, dt, settle, tolerance, record_kinds):
+def _run(chain, ref: PathReference, q, ctrl, T_end, *, dt, settle, tolerance, record_kinds):
     """The control loop: the schedule, then up to ``settle`` seconds on the end pose."""
+    path, plan = ref.path, ref.plan
     n_sched = len(plan) if plan is not None else int(math.ceil(path.duration / dt - 1e-9)) + 1
     n_settle = int(math.ceil(settle / dt))
     Q, QD, QDD, ST, S, KINDS = [], [], [], [], [], []
@@ -197,7 +190,8 @@ def _run(chain, path, q, ctrl, plan, T_end, *, dt, settle, tolerance, record_kin
     kind, kind_at, kind_every = None, -(10**9), max(1, round(0.02 / dt))
     while True:
         if k < n_sched:
-            s, cmd = _command(ctrl, path, plan, k, q, dt)
+            ref.tau = k * dt  # step k of the schedule, exactly
+            s, cmd = _command(ctrl, ref, q, dt)
         else:
             s = float(plan.s[-1]) if plan is not None else path.length
             cmd = ctrl.step(q, target=T_end, dt=dt)

@@ -27,7 +27,8 @@ if TYPE_CHECKING:
 __all__ = ["Execution"]
 
 _ARRAY_FIELDS = ("t", "q", "qd", "qdd", "poses", "position_error", "orientation_error", "tracking_error",
-                 "sigma_min", "s", "vmax", "amax", "q_measured", "qd_measured", "stamps", "fresh", "periods")
+                 "sigma_min", "s", "vmax", "amax", "q_measured", "qd_measured", "q_commanded", "stamps",
+                 "fresh", "periods")
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -47,6 +48,8 @@ class Execution:
         tracking_error: (K,) distance from the *reference* pose of the same step [m] (how
             far behind or ahead of the schedule), or None.
         statuses: (K,) controller status per step (see ``ratectl.controller.STATUSES``).
+        reasons: (K,) the controller's reason per step ("" when regular), or () when not
+            recorded.
         kinds: (K,) singularity kind for steps whose status is "damped" or "singular"
             (None elsewhere), or None when not recorded.
         sigma_min: (K,) σ_min(J) per step (NaN where unknown).
@@ -68,6 +71,8 @@ class Execution:
         q_measured, qd_measured: (K, n) joint positions and velocities as the robot measured
             them (``q`` is then the same positions; ``qd`` and ``qdd`` are the *commanded*
             velocity and its change).
+        q_commanded: (K, n) the joint positions each command leads to (the controller's
+            ``q_next``): the commanded stream beside the measured one.
         stamps: (K,) the robot's time stamps of the measured states [s].
         fresh: (K,) True where the cycle got a new measured state (False: the stamp had not
             advanced and the previous command was held).
@@ -86,6 +91,7 @@ class Execution:
     orientation_error: np.ndarray | None = None
     tracking_error: np.ndarray | None = None
     statuses: tuple[str, ...] = ()
+    reasons: tuple[str, ...] = ()
     kinds: tuple[str | None, ...] | None = None
     sigma_min: np.ndarray | None = None
     s: np.ndarray | None = None
@@ -101,6 +107,7 @@ class Execution:
     info: Mapping[str, Any] = field(default_factory=lambda: _EMPTY)
     q_measured: np.ndarray | None = None
     qd_measured: np.ndarray | None = None
+    q_commanded: np.ndarray | None = None
     stamps: np.ndarray | None = None
     fresh: np.ndarray | None = None
     periods: np.ndarray | None = None
@@ -207,9 +214,7 @@ class Execution:
         if math.isfinite(self.nominal_duration):
             lines.append(f"  duration {self.duration:.3f} s vs nominal {self.nominal_duration:.3f} s "
                          f"({self.extra_time:+.3f} s, ×{self.slowdown:.2f})")
-        if self.position_error is not None:
-            lines.append(f"  max path error {self.max_position_error * 1e3:.4g} mm, "
-                         f"{math.degrees(self.max_orientation_error):.4g}°")
+        lines.extend(self._error_lines())
         lines.append(f"  max |q̇|/vmax {self.velocity_ratio:.3f}, max |q̈|/amax {self.acceleration_ratio:.3f}")
         if self.sigma_min is not None and np.any(np.isfinite(self.sigma_min)):
             lines.append(f"  min σ_min(J) {np.nanmin(self.sigma_min):.4g} (unscaled J, analyze().sigma_min)")
@@ -222,6 +227,30 @@ class Execution:
         if self.statuses:
             lines.append("  statuses: " + ", ".join(f"{k} {v}" for k, v in self.status_counts().items()))
         return "\n".join(lines)
+
+    def _error_lines(self) -> list[str]:
+        """What the errors mean for this kind of run: the path error of a path, the distance to
+        the target over time of a target run, the tracking of a twist stream."""
+        mode = self.info.get("mode", "path")
+        if mode == "twist":
+            lin, ang = self.info.get("twist_linear_error"), self.info.get("twist_angular_error")
+            if lin is None or ang is None or not np.any(np.isfinite(lin)):
+                return []
+            a50, amax = math.degrees(float(np.nanmedian(ang))), math.degrees(float(np.nanmax(ang)))
+            return [f"  twist tracking (measured J q̇ − streamed twist): linear median "
+                    f"{np.nanmedian(lin) * 1e3:.3g} mm/s, max {np.nanmax(lin) * 1e3:.3g} mm/s; "
+                    f"angular median {a50:.3g}°/s, max {amax:.3g}°/s"]
+        if self.position_error is None or self.orientation_error is None:
+            return []
+        if mode == "target":
+            pe, oe = self.position_error, self.orientation_error
+            marks = [0.0, 0.25, 0.5, 1.0]
+            idx = [min(int(round(m * (len(pe) - 1))), len(pe) - 1) for m in marks]
+            over = ", ".join(f"t {self.t[k]:.2f} s: {pe[k] * 1e3:.3g} mm / {math.degrees(oe[k]):.3g}°"
+                             for k in idx)
+            return [f"  distance to the target: {over}"]
+        return [f"  max path error {self.max_position_error * 1e3:.4g} mm, "
+                f"{math.degrees(self.max_orientation_error):.4g}°"]
 
     def __repr__(self) -> str:
         return (f"Execution(source={self.source!r}, steps={self.steps}, completed={self.completed}, "

@@ -3,11 +3,18 @@
 Every period ``1/rate_hz`` the loop
 
 1. reads the robot (``driver.read()``) — a *fresh* state is one whose stamp advanced;
-2. evaluates the reference at the robot's time t = stamp − stamp₀ (a path's pose and
-   feed-forward twist, a fixed target, or a twist stream);
-3. ``cmd = controller.step(q_measured, target=T_d(t), twist=ξ(t), dt=1/rate_hz)``;
-4. sends ``driver.command(cmd.qd)`` — on a stale cycle (no fresh state) the previous
-   command is sent again and the controller is not stepped;
+2. evaluates the reference at the robot's time t = stamp − stamp₀ (a path: the governor's
+   pose P(s) and joint feed-forward, the same `PathReference` as `follow`, its progress
+   re-timed from the measured joints so it never runs away from a lagging arm; a fixed
+   target; or a twist stream);
+3. ``cmd = controller.step(q_measured, target=T_d(t), twist=ξ(t), qd_ff=..., dt=dt)`` with dt
+   the robot's own period (the stamps' difference), so vmax and amax hold over the real
+   periods, not the nominal one;
+4. sends ``driver.command(cmd.qd)`` — on a stale cycle (no fresh state: a dropped or late
+   sample) the controller is stepped on the predicted state (the last one advanced by the
+   command sent), so its limits brake from where the command has taken the arm; stale for
+   longer than half the watchdog, the controller's brake (`ResolvedRateController.brake`) is
+   sent instead;
 5. sleeps until the next deadline ``t₀ + (k+1)/rate_hz``. It never busy-waits: a spinning
    loop holds Python's GIL and starves anything else in the process (a simulator's server
    thread, a robot library's receive thread). Deadlines are absolute, so an oversleep in
@@ -21,6 +28,9 @@ Safety (every way out stops the robot with ``driver.stop()`` and returns the rec
 * **watchdog** — no fresh state for longer than ``timeout``: halt at once (status
   ``"halted"``, reason ``"watchdog: ..."``). The decision is taken within ``timeout`` plus
   one period of the last fresh state;
+* **a robot that does not follow its command** (`ratectl.execution.following.FollowWatch`:
+  commanded against measured motion over ``follow_window``): the controller brakes to rest
+  (status ``"halted"``, the reason names the joint);
 * **a non-finite measured state** (NaN or inf in q or q̇): the controller's latched safe
   halt decelerates the last command to zero within the acceleration limits, then the
   robot is stopped;
@@ -54,8 +64,12 @@ from ..drivers.base import Driver, RobotState
 from ..errors import DriverError, InputError
 from ..model import Chain
 from ..paths import Path
+from ..planning import Governor, GovernorPlan
+from ..singularity import analyze
 from ..spatial import pose_error
+from .following import FollowWatch as _FollowWatch
 from .record import Execution
+from .reference import PathReference
 
 __all__ = ["run"]
 
@@ -109,8 +123,10 @@ class _Reference:
     """The reference of a run: what the controller is given at robot time t, and when it ends.
 
     ``mode`` is "path", "target" or "twist". `at` moves ``Td`` (the target pose, None for a
-    twist stream) and ``s`` (the path parameter [m]) to time t and returns the feed-forward
-    twist ξ(t) [v; ω] (None: no twist, or the stream ended).
+    twist stream), ``s`` (the path parameter [m]) and the joint feed-forward ``qd_ff``/``qdd_ff``
+    (a governed path) to time t and returns the feed-forward twist ξ(t) [v; ω] (None: no
+    twist, or the stream ended). A path's progress is a `PathReference` (`progress`), the
+    one `follow` uses, re-timed here from the measured joints.
     """
 
     mode: str
@@ -122,6 +138,12 @@ class _Reference:
     Td: np.ndarray | None = None  # the current target pose
     s: float = 0.0  # the current path parameter [m]
     settle_start: float | None = None  # robot time the path's end was reached [s]
+    progress: PathReference | None = None  # a path's progress (set by `_govern`)
+    plan: GovernorPlan | None = None
+    qd_ff: np.ndarray | None = None  # the joint feed-forward of this cycle
+    qdd_ff: np.ndarray | None = None
+    xi: np.ndarray | None = None  # the twist of this cycle
+    smoothed: bool = False  # the controller smooths (qd_ff, qdd_ff continuous)
 
     def __post_init__(self) -> None:
         self.Td = self.target
@@ -131,21 +153,26 @@ class _Reference:
         """True when "within tolerance of the end pose" ends the run (a target, a settled path)."""
         return self.mode == "target" or (self.mode == "path" and self.settle_start is not None)
 
-    def at(self, t: float) -> np.ndarray | None:
-        path = self.path
-        if path is not None:
-            if t <= path.duration:
-                self.s, sd, _ = path.progress(t)
-                self.Td = path.pose_at(self.s)
-                return path.twist_at(self.s, sd=sd)
-            self.s = path.length
-            self.Td = path.end
+    def at(self, t: float, dt: float, q: np.ndarray | None, h: float) -> np.ndarray | None:
+        """The reference at robot time t, ``dt`` [s] of robot time after the previous one, for
+        the measured joints ``q``, commanding a period ``h`` [s] ahead."""
+        prog = self.progress
+        if prog is not None:
             if self.settle_start is None:
-                self.settle_start = t
+                prog.advance(dt, q)
+                r = prog.at(h, smoothed=self.smoothed)
+                self.s, self.Td, self.qd_ff, self.qdd_ff = r.s, r.pose, r.qd_ff, r.qdd_ff
+                if prog.finished:
+                    self.settle_start = t
+                self.xi = r.twist
+                return r.twist
+            self.s, self.Td, self.qd_ff, self.qdd_ff = prog.end_s, prog.end_pose, None, None
+            self.xi = None
             return None
         if self.mode == "twist":
             xi = self.twist if self.twist_fn is None else self.twist_fn(t)
-            return None if xi is None else np.asarray(xi, dtype=float)
+            self.xi = None if xi is None else np.asarray(xi, dtype=float)
+            return self.xi
         return None
 
 
@@ -247,6 +274,38 @@ def _warm_up(
     ctrl.reset()
 
 
+def _govern(
+    ref: _Reference,
+    chain: Chain,
+    q0: np.ndarray,
+    period: float,
+    governor: Governor | bool | None,
+    ctrl: ResolvedRateController,
+    duration: float | None,
+    settle: float,
+) -> None:
+    """A path's progress: the governor's plan from the first measured state (as `follow`
+    plans it), or the path's own time law (``governor`` False or None); the time limit
+    becomes the plan's duration + ``settle`` unless a ``duration`` was given."""
+    if ref.path is None:
+        return
+    if not (governor is None or isinstance(governor, bool | Governor)):
+        raise InputError(
+            f"governor must be True, False or a ratectl.planning.Governor, got {governor!r}",
+            argument="governor",
+            value=governor,
+        )
+    plan = None
+    if governor is not False and governor is not None:
+        gov = governor if isinstance(governor, Governor) else Governor(check_jerk=ctrl.filter is not None)
+        plan = gov.plan(chain, ref.path, q0, dt=period)
+    ref.plan = plan
+    ref.progress = PathReference(ref.path, plan)
+    ref.smoothed = ctrl.filter is not None
+    if duration is None:
+        ref.limit = ref.progress.duration + settle
+
+
 # ---------------------------------------------------------------------- run
 def run(
     driver: Driver,
@@ -262,15 +321,19 @@ def run(
     tolerance: tuple[float, float] = (1e-4, 1e-3),
     status_line: bool | None = None,
     on_interrupt: str = "raise",
+    governor: Governor | bool | None = True,
+    path_tolerance: tuple[float, float] = (1e-3, math.radians(0.5)),
+    follow_window: float = 0.5,
 ) -> Execution:
     """Run the resolved-rate controller on a robot in real time; returns an `Execution`.
 
     Give exactly one reference:
 
     * ``path`` — a `ratectl.paths.Path` starting at the robot's current tool pose
-      (within 1 mm / 0.01 rad; servo there first with ``target=path.start``): target
-      P(s(t)) and feed-forward twist dP/ds·ṡ(t) on the path's time law, then up to
-      ``settle`` seconds on the end pose until within ``tolerance``;
+      (within 1 mm / 0.01 rad; servo there first with ``target=path.start``): governed
+      by default (target P(s) and the planned joint velocity as feed-forward, the progress
+      re-timed from the measured state), then up to ``settle`` seconds on the end pose until
+      at rest within ``tolerance``; completed only if it stayed within ``path_tolerance``;
     * ``target`` — a 4×4 tool pose to servo to; ends when within ``tolerance``;
     * ``twist`` — a tool twist [v; ω] (6,) [m/s; rad/s], or a callable ``twist(t)`` of the
       time since the start [s] returning one, or None to end the stream.
@@ -290,13 +353,22 @@ def run(
             a terminal and the run may last longer than 2 s.
         on_interrupt: ``"raise"`` (re-raise Ctrl-C after stopping the robot, with the record
             as ``exc.execution``) or ``"return"`` (return the record).
+        governor: a path's timing, as in `follow`: True (default, a `Governor` planned from
+            the first measured state), a `Governor`, or False/None (the path's own time law).
+        path_tolerance: (position [m], orientation [rad]) a path run must stay within from
+            start to end to count as completed (measured on the measured poses).
+        follow_window: the window [s] over which commanded and measured motion are compared
+            (`FollowWatch`); 0 switches the check off.
 
     Returns:
         An `Execution` with source ``"run"``: ``q``/``q_measured`` the measured joint
         positions, ``qd_measured`` the measured velocities, ``qd``/``qdd`` the commanded
-        velocity and its change, tool poses fk(q_measured), the path (or target) errors, the
-        controller statuses, the robot's stamps, loop periods and overruns. ``info`` (a
-        read-only mapping) holds
+        velocity and its change, ``q_commanded`` the positions the commands lead to, tool
+        poses fk(q_measured), the path (or target) errors, the controller's ``statuses``,
+        ``reasons`` and ``kinds`` for every cycle, ``t`` the robot time of each cycle, the
+        robot's stamps, loop periods and overruns. ``info`` (a read-only mapping) holds
+        ``plan`` (a path's `GovernorPlan`, or None), ``twist_linear_error`` and
+        ``twist_angular_error`` (a twist stream: measured J q̇ against the stream, per cycle),
         ``reason`` (why the run ended), ``halt_delay`` (watchdog: time from the last fresh
         state to the halt decision [s]), ``timing`` (per-cycle read, control, command and
         total work times [s]) and ``stop_error`` (if ``driver.stop()`` failed).
@@ -329,6 +401,7 @@ def run(
     ctrl = _controller(controller, chain)
     state0 = _first_state(driver, ref)  # nothing moves before the loop
     _warm_up(ctrl, ref, state0, period, controller)
+    _govern(ref, chain, state0.q, period, governor, ctrl, duration, settle)
     show = status_line if status_line is not None else (_is_tty(sys.stderr) and ref.limit > 2.0)
     loop = _Loop(
         driver,
@@ -339,9 +412,11 @@ def run(
         timeout=timeout,
         tolerance=(pos_tol, ori_tol),
         line=_StatusLine(bool(show)),
+        follow_window=follow_window,
     )
     loop.run()
-    ex = _execution(loop, chain, rate_hz)
+    path_tol = (float(path_tolerance[0]), float(path_tolerance[1]))
+    ex = _execution(loop, chain, rate_hz, path_tol)
     if loop.interrupted is not None and on_interrupt == "raise":
         loop.interrupted.execution = ex  # type: ignore[attr-defined]  # the record rides on the exception
         raise loop.interrupted
@@ -369,8 +444,10 @@ class _Loop:
         timeout: float,
         tolerance: tuple[float, float],
         line: _StatusLine,
+        follow_window: float = 0.5,
     ) -> None:
         self.driver, self.ctrl, self.ref, self.state0, self.line = driver, ctrl, ref, state0, line
+        self.watch = _FollowWatch(driver.chain, follow_window)
         self.period, self.timeout, self.tolerance = period, timeout, tolerance
         self.n = n = driver.chain.dof
         # the trace: one entry per recorded cycle (periods: per cycle started, popped when the
@@ -381,6 +458,10 @@ class _Loop:
         self.qd: list[np.ndarray] = []
         self.qdd: list[np.ndarray] = []
         self.statuses: list[str] = []
+        self.reasons: list[str] = []
+        self.q_cmd: list[np.ndarray] = []  # the commanded position q_next of each cycle
+        self.xi: list[np.ndarray | None] = []  # the reference twist of each cycle
+        self.t: list[float] = []  # robot time of each cycle [s] (estimated on stale cycles)
         self.sigma: list[float] = []
         self.Td: list[np.ndarray | None] = []
         self.s: list[float] = []
@@ -392,7 +473,16 @@ class _Loop:
         # the controller's last output (held on stale cycles)
         self.qd_cmd = self.zero
         self.status = "regular"
+        self.reason_now = ""
+        self.q_next = state0.q
         self.sigma_min = math.nan
+        # the loop's robot clock: time of the last cycle and of the last fresh state [s]
+        self.t_prev = 0.0
+        self.t_fresh = 0.0
+        self.t_ref = 0.0  # robot time the reference was last evaluated [s]
+        self.q_used = state0.q  # the joint positions the last command was computed from
+        self.first = True
+        self.stamp0 = state0.stamp
         self.halting = ""  # the reason of a controller halt being decelerated
         # how it ended
         self.reason = ""
@@ -414,13 +504,18 @@ class _Loop:
         if not recorded:
             self.periods.pop()
 
-    def record(self, state: RobotState, qd: np.ndarray, qdd: np.ndarray, status: str, fresh: bool) -> None:
+    def record(self, state: RobotState, qd: np.ndarray, qdd: np.ndarray, status: str, fresh: bool,
+               t: float | None = None) -> None:
         self.stamps.append(state.stamp)
+        self.t.append(state.stamp - self.stamp0 if t is None else t)
         self.q.append(state.q)
         self.qd_measured.append(state.qd)
         self.qd.append(qd)
         self.qdd.append(qdd)
         self.statuses.append(status)
+        self.reasons.append(self.reason_now)
+        self.q_cmd.append(self.q_next)
+        self.xi.append(self.ref.xi)
         self.sigma.append(self.sigma_min)
         self.Td.append(self.ref.Td)
         self.s.append(self.ref.s)
@@ -451,9 +546,29 @@ class _Loop:
                 self._end("interrupted by the user (Ctrl-C)", "interrupted")
             self.stop_error = f"{type(exc).__name__}: {exc}"
 
+    def _clock(self, state: RobotState, fresh: bool, start: float) -> tuple[float, float]:
+        """(t, dt): the robot time of this cycle [s] — the measured stamp on a fresh cycle, the
+        last stamp plus the wall time since it on a stale one — and the time since the previous
+        cycle [s], the period the limits hold over (the nominal period on the first cycle;
+        never below 5 % of it)."""
+        if self.first:  # the robot clock starts at the first cycle (after any planning)
+            self.stamp0 = state.stamp
+        if fresh:
+            t = state.stamp - self.stamp0
+        else:
+            t = self.t_fresh + (start - self.last_fresh_wall)
+        if self.first:
+            dt = self.period
+            self.first = False
+        else:
+            dt = max(t - self.t_prev, 0.05 * self.period)
+            t = self.t_prev + dt
+        self.t_prev = t
+        return t, dt
+
     def cycle(self) -> bool:
-        """One period: read, watchdog, step (on a fresh state), command, end conditions, wait.
-        Returns False when the run ends."""
+        """One period: read, watchdog, step (on a fresh state) or brake (on a stale one),
+        command, end conditions, wait. Returns False when the run ends."""
         start = time.perf_counter()
         self.periods.append(start - self.prev_start)
         self.prev_start = start
@@ -470,38 +585,57 @@ class _Loop:
         elif start - self.last_fresh_wall > self.timeout:
             self._watchdog(state, start, t_read)
             return False
-        t = state.stamp - self.state0.stamp
-        qdd_cmd = self.zero
-        t_ctrl = t_read
-        cmd = None
+        t, dt = self._clock(state, fresh, start)
+        dt_ref = t - self.t_ref  # robot time since the reference was last evaluated
         if fresh:
-            cmd = self._step(state, t)
+            self.t_fresh = t
+            q_now: np.ndarray = state.q if state.finite else np.full(self.n, math.nan)
+        else:
+            q_now = self.q_used + self.qd_cmd * dt  # the last state advanced by the command sent
+        if fresh or (start - self.last_fresh_wall <= 0.5 * self.timeout and not self.halting):
+            # a stale cycle steps the controller on the predicted state: its limits brake
+            # from where the command has taken the arm (the reference's rate holds)
+            cmd = self._step(q_now, fresh, state.finite, t, dt, dt_ref)
             if cmd is None:
                 return False
-            t_ctrl = time.perf_counter()
-            self.qd_cmd, qdd_cmd, self.status, self.sigma_min = cmd.qd, cmd.qdd, cmd.status, cmd.sigma_min
-            if cmd.status == "halted" and getattr(self.ctrl, "halted", False) and not self.halting:
-                self.halting = cmd.reason
+            self.t_ref = t
+            self.q_used = q_now
+        else:
+            # stale for longer than half the watchdog: what the controller brakes to
+            cmd = self.ctrl.brake(dt, reason="no fresh measured state for "
+                                  f"{(start - self.last_fresh_wall) * 1e3:.0f} ms: braking")
+            self.q_used = q_now
+        t_ctrl = time.perf_counter()
+        self.qd_cmd, self.status, self.sigma_min = cmd.qd, cmd.status, cmd.sigma_min
+        self.reason_now, self.q_next = cmd.reason, cmd.q_next
+        if cmd.status == "halted" and getattr(self.ctrl, "halted", False) and not self.halting:
+            self.halting = cmd.reason
         try:
             self.driver.command(self.qd_cmd)
         except Exception as exc:
             self._end(f"driver command() failed: {type(exc).__name__}: {exc}", "halted", recorded=False)
             return False
         t_cmd = time.perf_counter()
-        self.record(state, self.qd_cmd, qdd_cmd, self.status, fresh)
+        self.record(state, self.qd_cmd, cmd.qdd, self.status, fresh, t)
         self.timing.append((t_read - start, t_ctrl - t_read, t_cmd - t_ctrl, t_cmd - start))
-        if cmd is not None and self._finished(t, cmd):
+        if fresh and not self.halting:
+            lost = self.watch.update(t, state.q, self.qd_cmd, dt)
+            if lost:
+                self.halting = lost
+        if fresh and self._finished(t, cmd):
             return False
         now = time.perf_counter()
         if self.line.enabled and now >= self.line.next:
-            self._report(now, t, cmd)
+            self._report(now, t, cmd if fresh else None)
         self._wait(now)
         return True
 
     def _watchdog(self, state: RobotState, start: float, t_read: float) -> None:
         """No fresh state for longer than the timeout: record a halted cycle and end."""
         self.halt_delay = start - self.last_fresh_wall
-        self.record(state, self.zero, self.zero, "halted", False)
+        self.reason_now = "watchdog: no fresh state"
+        t_halt = max(self.t_prev, self.t_fresh + self.halt_delay)
+        self.record(state, self.zero, self.zero, "halted", False, t_halt)
         self.timing.append((t_read - start, 0.0, 0.0, time.perf_counter() - start))
         self._end(
             f"watchdog: no fresh state for {self.halt_delay * 1e3:.1f} ms (timeout "
@@ -509,25 +643,28 @@ class _Loop:
             "halted",
         )
 
-    def _step(self, state: RobotState, t: float) -> Command | None:
-        """The reference at robot time t and the controller's step on the measured state (a
-        non-finite one latches the controller's safe halt); None when the run ends here."""
+    def _step(self, q: np.ndarray, fresh: bool, finite: bool, t: float, dt: float,
+              dt_ref: float) -> Command | None:
+        """The reference at robot time t and the controller's step on the joints ``q`` (measured,
+        or predicted on a stale cycle) over the measured period ``dt`` (a non-finite state
+        latches the controller's safe halt; a halt of the loop's own — a robot that does not
+        follow — brakes); None when the run ends here."""
+        if self.halting and not getattr(self.ctrl, "halted", False):
+            return self.ctrl.brake(dt, reason=self.halting)
         try:
-            xi = self.ref.at(t)
+            xi = self.ref.at(t, dt_ref, q if (fresh and finite) else None, dt)
         except Exception as exc:
             self._end(f"the reference raised {type(exc).__name__}: {exc}", "halted", recorded=False)
             return None
         if self.ref.mode == "twist" and xi is None and not self.halting:
             self._end("the twist stream ended", "completed", recorded=False)
             return None
-        q_in = state.q if state.finite else np.full(self.n, math.nan)
-        if not state.finite and not self.halting:
-            self.halting = (
-                f"non-finite measured state at t = {t:.4g} s "
-                f"({'q' if not np.all(np.isfinite(state.q)) else 'q̇ or stamp'})"
-            )
+        if not finite and not self.halting:
+            self.halting = f"non-finite measured state at t = {t:.4g} s (q, q̇ or stamp)"
         try:
-            return self.ctrl.step(q_in, target=self.ref.Td, twist=xi, dt=self.period)
+            return self.ctrl.step(
+                q, target=self.ref.Td, twist=xi, qd_ff=self.ref.qd_ff, qdd_ff=self.ref.qdd_ff, dt=dt
+            )
         except Exception as exc:
             self._end(f"the controller raised {type(exc).__name__}: {exc}", "halted", recorded=False)
             return None
@@ -541,7 +678,10 @@ class _Loop:
                 self._end(self.halting, "halted")
                 return True
         elif self.ref.on_end_pose:
-            if cmd.position_error <= self.tolerance[0] and cmd.orientation_error <= self.tolerance[1]:
+            # a path ends at rest on its end pose (a target: on it, the controller's own arrival)
+            at_rest = self.ref.mode != "path" or self._at_rest()
+            if cmd.position_error <= self.tolerance[0] and cmd.orientation_error <= self.tolerance[1] \
+                    and at_rest:
                 self._end("reached the end pose within tolerance", "completed")
                 return True
         if not self.halting and t >= limit:
@@ -558,6 +698,21 @@ class _Loop:
             self._end(f"{self.halting}; still moving {limit + 2.0:g} s in", "halted")
             return True
         return False
+
+    def _at_rest(self) -> bool:
+        """The command has (practically) come to rest: its tool twist J q̇ within K·tolerance,
+        linear and angular (the controller's own arrival rule, K its gain) — what the
+        proportional law asks at the tolerance, so friction that holds a joint just off the
+        pose does not keep the run waiting."""
+        qd = self.qd_cmd
+        if float(np.max(np.abs(qd))) <= _END_SPEED:
+            return True
+        if not np.all(np.isfinite(self.q_used)):
+            return False
+        xi = self.driver.chain.jacobian(self.q_used) @ qd
+        K = np.broadcast_to(np.asarray(getattr(self.ctrl, "gain", 10.0), dtype=float), (6,))
+        return bool(np.linalg.norm(xi[:3]) <= K[:3].max() * self.tolerance[0]
+                    and np.linalg.norm(xi[3:]) <= K[3:].max() * self.tolerance[1])
 
     def _report(self, now: float, t: float, cmd: Command | None) -> None:
         err = cmd.position_error * 1e3 if cmd is not None and self.ref.Td is not None else math.nan
@@ -624,7 +779,64 @@ def _message(outcome: str, reason: str, stop_error: str) -> str:
     return message
 
 
-def _execution(loop: _Loop, chain: Chain, rate_hz: float) -> Execution:
+def _kinds(chain: Chain, q: np.ndarray, t: np.ndarray, statuses: tuple[str, ...]) -> tuple[str | None, ...]:
+    """The singularity kind (`ratectl.analyze`) of the cycles whose status is "damped" or
+    "singular", None elsewhere; within such a stretch evaluated every 20 ms and carried over
+    in between (as `follow` records it)."""
+    kinds: list[str | None] = []
+    kind, at = None, -math.inf
+    for k, st in enumerate(statuses):
+        if st in ("damped", "singular") and np.all(np.isfinite(q[k])):
+            if t[k] - at >= 0.02 or k == 0 or statuses[k - 1] not in ("damped", "singular"):
+                kind, at = analyze(chain, q[k]).kind, t[k]
+            kinds.append(kind)
+        else:
+            kinds.append(None)
+    return tuple(kinds)
+
+
+def _twist_tracking(
+    chain: Chain, q: np.ndarray, qd_measured: np.ndarray, xi: list[np.ndarray | None]
+) -> dict[str, np.ndarray]:
+    """A twist stream's tracking per cycle: the measured tool twist J(q) q̇ against the streamed
+    one, linear [m/s] and angular [rad/s] norms of the difference (NaN where the stream gave
+    none or the state is not finite)."""
+    K = len(q)
+    lin, ang = np.full(K, math.nan), np.full(K, math.nan)
+    for k in range(K):
+        x = xi[k]
+        if x is not None and np.all(np.isfinite(q[k])) and np.all(np.isfinite(qd_measured[k])):
+            d = chain.jacobian(q[k]) @ qd_measured[k] - x
+            lin[k], ang[k] = float(np.linalg.norm(d[:3])), float(np.linalg.norm(d[3:]))
+    return {"twist_linear_error": lin, "twist_angular_error": ang}
+
+
+def _on_path(
+    ref: _Reference, outcome: str, reason: str, pos_err: np.ndarray | None, ori_err: np.ndarray | None,
+    s: np.ndarray, path_tolerance: tuple[float, float],
+) -> tuple[str, str]:
+    """(outcome, reason) of a path run: "completed" only on the path — within
+    ``path_tolerance`` (position [m], orientation [rad]) all along, on a plan that reaches the
+    end within the limits."""
+    if ref.mode != "path" or outcome != "completed" or pos_err is None or ori_err is None:
+        return outcome, reason
+    plan = ref.plan
+    if plan is not None and (not plan.complete or not plan.within_limits):
+        return "incomplete", f"governor: {plan.message}"
+    pe, oe = np.nan_to_num(pos_err, nan=math.inf), np.nan_to_num(ori_err, nan=math.inf)
+    if pe.max() > path_tolerance[0] or oe.max() > path_tolerance[1]:
+        k = int(np.argmax(pe / path_tolerance[0] + oe / path_tolerance[1]))
+        return "left-path", (
+            f"left the path: {pe.max() * 1e3:.3g} mm / {math.degrees(oe.max()):.3g}° from it (largest near "
+            f"s = {s[k]:.4g} m; path tolerance {path_tolerance[0] * 1e3:.3g} mm / "
+            f"{math.degrees(path_tolerance[1]):.3g}°)"
+        )
+    return outcome, reason
+
+
+def _execution(
+    loop: _Loop, chain: Chain, rate_hz: float, path_tolerance: tuple[float, float] = (math.inf, math.inf)
+) -> Execution:
     """The record of the run (after the loop; nothing here runs in real time)."""
     n, ref = chain.dof, loop.ref
     if not loop.q:  # ended before the first cycle was recorded: the first state is the record
@@ -635,7 +847,7 @@ def _execution(loop: _Loop, chain: Chain, rate_hz: float) -> Execution:
     loop.periods[0] = loop.period
     q = np.array(loop.q, dtype=float).reshape(-1, n)
     stamps = np.array(loop.stamps, dtype=float)
-    t = stamps - loop.state0.stamp
+    t = np.array(loop.t, dtype=float)
     K = len(q)
     ok = np.all(np.isfinite(q), axis=1)
     poses = np.full((K, 4, 4), math.nan)
@@ -643,6 +855,8 @@ def _execution(loop: _Loop, chain: Chain, rate_hz: float) -> Execution:
         poses[ok] = chain.fk(q[ok])
     s = np.array(loop.s, dtype=float)
     pos_err, ori_err, track, T_end = _errors(ref, poses, ok, loop.Td, s)
+    loop.outcome, loop.reason = _on_path(ref, loop.outcome, loop.reason, pos_err, ori_err, s, path_tolerance)
+    qd_measured = np.array(loop.qd_measured, dtype=float).reshape(-1, n)
     end: dict[str, float] = {}
     if T_end is not None and ok.any():
         e = pose_error(T_end, poses[int(np.flatnonzero(ok)[-1])])
@@ -657,7 +871,10 @@ def _execution(loop: _Loop, chain: Chain, rate_hz: float) -> Execution:
         "halt_delay": loop.halt_delay,
         "timing": {name: np.array([row[i] for row in loop.timing]) for i, name in enumerate(_TIMING)},
         "stop_error": loop.stop_error,
+        "plan": ref.plan,
+        "path_tolerance": path_tolerance if ref.mode == "path" else None,
         **end,
+        **(_twist_tracking(chain, q, qd_measured, loop.xi) if ref.mode == "twist" else {}),
     }
     statuses = tuple(loop.statuses)
     if loop.outcome in ("halted", "interrupted") and statuses and statuses[-1] != "halted":
@@ -672,6 +889,8 @@ def _execution(loop: _Loop, chain: Chain, rate_hz: float) -> Execution:
         orientation_error=ori_err,
         tracking_error=track,
         statuses=statuses,
+        reasons=tuple(loop.reasons),
+        kinds=_kinds(chain, q, t, statuses),
         sigma_min=np.array(loop.sigma, dtype=float),
         s=s if ref.path is not None else None,
         nominal_duration=float(ref.path.duration) if ref.path is not None else math.nan,
@@ -685,7 +904,8 @@ def _execution(loop: _Loop, chain: Chain, rate_hz: float) -> Execution:
         amax=np.array(chain.amax),
         info=info,
         q_measured=q,
-        qd_measured=np.array(loop.qd_measured, dtype=float).reshape(-1, n),
+        qd_measured=qd_measured,
+        q_commanded=np.array(loop.q_cmd, dtype=float).reshape(-1, n),
         stamps=stamps,
         fresh=np.array(loop.fresh, dtype=bool),
         periods=np.array(loop.periods, dtype=float),

@@ -88,7 +88,9 @@ def test_watchdog_halts_within_timeout_plus_one_period(arm):
     assert timeout < delay <= timeout + ex.periods[-1] + 1e-4
     assert delay <= timeout + 1.0 / rate + 0.05  # one period, plus what a busy OS may add
     assert drv.stops >= 1
-    assert not ex.fresh[-1] and ex.t[-1] < 0.31
+    # the last fresh stamp is from before the freeze; the loop's clock ran on to the halt
+    assert not ex.fresh[-1] and ex.stamps[-1] - ex.stamps[0] < 0.31
+    assert ex.t[-1] - (ex.stamps[-1] - ex.stamps[0]) == pytest.approx(delay, abs=2e-3)
 
 
 def test_dropped_samples_are_held_and_counted(arm):
@@ -134,7 +136,8 @@ def test_nan_in_the_measured_state_brings_a_safe_halt(arm):
     speed = np.max(np.abs(qd), axis=1)
     assert speed[0] > 0.01 and np.max(np.abs(qd[-1])) <= 1e-3
     assert np.all(np.diff(speed) <= 1e-12)
-    acc = np.abs(np.diff(qd, axis=0)) * rate
+    # within amax over the real periods (the robot's clock)
+    acc = np.abs(np.diff(qd, axis=0)) / np.diff(ex.t[k - 1 :])[:, None]
     assert np.all(acc <= arm.amax * (1 + 1e-6))
     assert set(ex.statuses[k:]) == {"halted"}
     assert drv.stops >= 1

@@ -1,0 +1,114 @@
+"""rc.run on the MuJoCo driver: the governed wrist line, and a teleop twist stream into a joint limit
+of an imported arm (example-robot-data's UR10).
+
+The MuJoCo driver advances its physics by one period per command and stamps its state with the
+physics time, so these runs are deterministic however loaded the machine is (the loop takes its
+periods from the stamps); they run at twice real time.
+"""
+
+from __future__ import annotations
+
+import math
+from importlib import metadata
+
+import numpy as np
+import pytest
+
+import ratectl as rc
+from ratectl.cli import demo
+
+pytest.importorskip("mujoco")
+
+from ratectl.interop.mujoco import MujocoDriver  # noqa: E402
+
+PERIOD = 0.002
+RATE = 1000.0  # wall-clock pacing: twice the physics rate
+
+
+def _ur10_urdf():
+    try:
+        files = metadata.files("example-robot-data") or []
+    except metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed")
+    for f in files:
+        if str(f).endswith("ur_description/urdf/ur10_robot.urdf"):
+            return f.locate()
+    pytest.skip("example-robot-data has no ur10_robot.urdf")
+
+
+def test_the_demo_wrist_line_on_mujoco():
+    sc = demo.wrist_line("ur5e")
+    arm, line, q0 = sc.chain, sc.path, sc.q0
+    ex = rc.run(MujocoDriver(arm, q0=q0, period=PERIOD), path=line, rate_hz=RATE)
+    assert ex.completed, ex.summary()
+    assert ex.max_position_error <= 1e-3 and math.degrees(ex.max_orientation_error) <= 0.5, ex.summary()
+    acc = np.abs(np.diff(ex.qd, axis=0)) / np.diff(ex.t)[:, None]
+    assert np.all(acc <= arm.amax * (1 + 1e-9)) and np.all(np.abs(ex.qd) <= arm.vmax * (1 + 1e-9))
+    # the plain time law damps through the singularity and leaves the path: not completed
+    ex2 = rc.run(MujocoDriver(arm, q0=q0, period=PERIOD), path=line, rate_hz=RATE, governor=False)
+    assert not ex2.completed and "left the path" in ex2.message, ex2.summary()
+
+
+LIMIT = 0.6  # the shoulder pan's position limit [rad]
+
+
+@pytest.fixture(scope="module", params=[False, True], ids=["no-smoothing", "smoothing"])
+def teleop(request):
+    """The UR10 turned about its base by a 0.12 m/s twist for 6 s, into a 0.6 rad pan limit."""
+    base = rc.Chain.from_urdf(_ur10_urdf(), tip="tool0")
+    qlim = np.column_stack([base.lower, base.upper])
+    qlim[0] = (-LIMIT, LIMIT)
+    arm = base.with_limits(qlim=qlim, amax=4.0, jmax=40.0)
+    q0 = np.array([0.3, -1.2, 1.5, -1.9, -1.57, 0.0])
+    p = arm.fk(q0)[:3, 3]
+    r, phi0 = math.hypot(p[0], p[1]), math.atan2(p[1], p[0])
+    w = 0.12 / r
+
+    def twist(t):
+        if t > 6.0:
+            return None
+        phi = phi0 + w * t
+        return np.array([-0.12 * math.sin(phi), 0.12 * math.cos(phi), 0.0, 0.0, 0.0, w])
+
+    ctrl = rc.ResolvedRateController(arm, smoothing=request.param)
+    ex = rc.run(MujocoDriver(arm, q0=q0, period=PERIOD), twist=twist, controller=ctrl, rate_hz=RATE)
+    return request.param, arm, ex
+
+
+def test_teleop_reaches_the_limit_and_ends_with_the_stream(teleop):
+    _, arm, ex = teleop
+    assert ex.completed and "stream ended" in ex.message, ex.summary()
+    # it got there: a jog stops 1 mrad inside a limit, braking at half of amax on an arm that lags
+    assert ex.q_measured[:, 0].max() > LIMIT - 5e-3
+    assert "joint-limit" in ex.statuses
+    # "joint-limit" says which joint, by its name, in every cycle's reason
+    name = repr(arm.joint_names[0])
+    assert all(name in r for s, r in zip(ex.statuses, ex.reasons, strict=True) if s == "joint-limit")
+
+
+_RINGING = ("controller-internal: held at its limit, the MuJoCo servo's measured pan overshoots the "
+            "commanded stop; the controller's limit-recovery commands it back harder than amax and "
+            "the status cycles joint-limit / limit-recovery / acceleration-limited")
+
+
+def _xfail_if(condition, reason):
+    return pytest.mark.xfail(condition, strict=True, reason=reason)
+
+
+def test_teleop_measured_joint_at_most_0p1_mrad_past_the_limit(teleop, request):
+    smoothing, _, ex = teleop
+    if not smoothing:  # measured 0.69 mrad past
+        request.applymarker(_xfail_if(True, _RINGING + "; 0.69 mrad past without smoothing"))
+    assert ex.q_measured[:, 0].max() - LIMIT <= 1e-4
+
+
+def test_teleop_commanded_acceleration_within_amax(teleop):
+    _, arm, ex = teleop
+    acc = np.abs(np.diff(ex.qd, axis=0)) / np.diff(ex.t)[:, None]
+    assert np.all(acc <= arm.amax * (1 + 1e-9)), float(np.max(acc / arm.amax))
+
+
+def test_teleop_at_most_8_status_changes(teleop):
+    _, _, ex = teleop
+    changes = sum(a != b for a, b in zip(ex.statuses[:-1], ex.statuses[1:], strict=True))
+    assert changes <= 8, changes
