@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import real_array
 from ..errors import InputError
 from .codegen import compile_kernel
 from .reference import check_prismatic_range, reference_fk_jacobian
@@ -263,7 +264,7 @@ def check_frame(frame: str) -> None:
 
 
 def check_point(point: ArrayLike) -> np.ndarray:
-    p = np.asarray(point, dtype=float)
+    p = real_array("point", point, "a 3-vector in tool-frame coordinates [m]")
     if p.shape != (3,) or not np.all(np.isfinite(p)):
         raise InputError("point must be a finite 3-vector in tool-frame coordinates [m], "
                          f"got {point!r}", argument="point", value=point)

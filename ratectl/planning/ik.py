@@ -87,6 +87,10 @@ def ik(chain: Chain, T_target: Any, q0: ArrayLike, *, tol: float | tuple[float, 
     Raises:
         InputError: a target that is not a rigid transform, a bad q0 or bad options.
     """
+    from ..model.chain import Chain
+
+    if not isinstance(chain, Chain):
+        raise InputError(f"chain must be a ratectl.Chain, got {chain!r}"[:200], argument="chain", value=chain)
     defect = rigid_transform_defect(T_target)
     if defect is not None:
         raise InputError(f"T_target {defect}", argument="T_target", value=T_target)
@@ -95,7 +99,12 @@ def ik(chain: Chain, T_target: Any, q0: ArrayLike, *, tol: float | tuple[float, 
     if q.shape != (chain.dof,):
         raise InputError(f"q0 must be one configuration ({chain.dof},), got shape {q.shape}",
                          argument="q0", value=q0)
-    tols = (tol, tol) if isinstance(tol, int | float | np.floating) else tuple(tol)
+    if isinstance(tol, int | float | np.floating):
+        tols: tuple = (tol, tol)
+    elif isinstance(tol, tuple | list | np.ndarray):
+        tols = tuple(tol)
+    else:
+        tols = ()
     if len(tols) != 2:
         raise InputError(f"tol must be a number or a pair (position [m], orientation [rad]), got {tol!r}",
                          argument="tol", value=tol)
