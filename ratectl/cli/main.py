@@ -110,7 +110,7 @@ def parse_q(tokens: Sequence[str], chain: Chain, *, degrees: bool = False, seed:
             lo_i, hi_i = float(chain.lower[i]), float(chain.upper[i])
             if not lo_i <= q[i] <= hi_i:
                 unit = "m" if chain.prismatic[i] else "rad"
-                warn(f"q{i + 1} ({chain.joint_names[i]}) = {q[i]:.4g} {unit} is outside its limits "
+                warn(f"joint {chain.joint_names[i]!r} = {q[i]:.4g} {unit} is outside its limits "
                      f"[{lo_i:.4g}, {hi_i:.4g}] {unit}")
     return q
 
@@ -274,11 +274,23 @@ def _cmd_scan(args) -> int:
     chain = load_arm(args.arm, tip=args.tip)
     if args.samples < 1:
         raise _Fail(f"--samples must be a positive count, got {args.samples}")
-    if args.plot and (not all(1 <= j <= chain.dof for j in args.joints) or args.joints[0] == args.joints[1]):
-        raise _Fail(f"--joints must be two different joints in 1..{chain.dof}, got {args.joints}")
+    from ..errors import InputError
+    from ..singularity import KINDS, scan
+    from ..singularity.maps import joint_pair
+
+    raw = args.joints if args.joints is not None else (["2", "4"] if chain.dof >= 5 else ["0", "1"])
+    try:
+        joints = joint_pair(chain, [int(v) if v.lstrip("+-").isdigit() else v for v in raw])
+    except InputError as exc:
+        raise _Fail(f"--joints: {exc}") from None
+    ranges = None
+    if args.map_range is not None:
+        v = [_number(w) for w in args.map_range]
+        ranges = ((v[0], v[1]), (v[2], v[3]))
+        if not (v[0] < v[1] and v[2] < v[3]):
+            raise _Fail(f"--range must give I_LO < I_HI and J_LO < J_HI, got {args.map_range}")
     if args.plot:
         _check_output(args.plot, "--plot")
-    from ..singularity import KINDS, scan
 
     rng = np.random.default_rng(args.seed)
     chunk = 50_000
@@ -310,9 +322,10 @@ def _cmd_scan(args) -> int:
     if args.plot:
         from ..singularity import plot_workspace_map, workspace_map
 
-        joints = tuple(j - 1 for j in args.joints)
-        _progress(f"workspace map over q{args.joints[0]}, q{args.joints[1]}")
-        wmap = workspace_map(chain, joints=joints, measure="sigma_min_scaled", resolution=args.resolution)
+        names = chain.joint_names
+        _progress(f"workspace map over {names[joints[0]]}, {names[joints[1]]}")
+        wmap = workspace_map(chain, joints=joints, ranges=ranges, measure="sigma_min_scaled",
+                             resolution=args.resolution)
         import matplotlib
 
         matplotlib.use("Agg")
@@ -475,9 +488,13 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--seed", type=_int_in(0, None, "a seed"), default=0,
                     help="random seed, a whole number >= 0 (default 0)")
     sp.add_argument("--plot", metavar="FILE", help="write a workspace map (PNG) to FILE")
-    sp.add_argument("--joints", nargs=2, type=_int_in(1, None, "a joint number"), default=[3, 5],
-                    metavar=("I", "J"),
-                    help="1-based joints of the map's axes (default 3 5)")
+    sp.add_argument("--joints", nargs=2, default=None, metavar=("I", "J"),
+                    help="the map's two joints: joint names, or 0-based indices (default 2 4 on arms "
+                         "with 5 or more joints, else 0 1)")
+    sp.add_argument("--range", nargs=4, default=None, metavar=("I_LO", "I_HI", "J_LO", "J_HI"),
+                    dest="map_range",
+                    help="the map's range of each joint in rad (m for prismatic joints), 'pi/2' style "
+                         "values accepted (default: the joints' limits; -pi..pi without limits)")
     sp.add_argument("--resolution", type=_int_in(*RESOLUTION_RANGE, "the resolution"), default=121,
                     help=f"map grid points per axis, {RESOLUTION_RANGE[0]} to {RESOLUTION_RANGE[1]} "
                          "(default 121)")

@@ -47,7 +47,7 @@ class ScanResult:
     manipulability: np.ndarray
     manipulability_scaled: np.ndarray
     condition_scaled: np.ndarray
-    inverse_condition: np.ndarray
+    inverse_condition_scaled: np.ndarray
     rank: np.ndarray
     singular: np.ndarray
     near_singular: np.ndarray
@@ -117,7 +117,7 @@ def scan(chain: Chain, qs: ArrayLike, *, length: float | None = None, rtol: floa
         manipulability=cat(lambda p: p["manipulability"]),
         manipulability_scaled=cat(lambda p: p["manipulability_scaled"]),
         condition_scaled=cat(lambda p: p["condition_scaled"]),
-        inverse_condition=_ro(_cond(s[..., 0], smin, True)),
+        inverse_condition_scaled=_ro(_cond(s[..., 0], smin, True)),
         rank=rk, singular=_ro(rk < m), near_singular=_ro(smin < near),
         kind_code=cat(lambda p: p["kind_code"]),
         manipulability_translational=cat(lambda p: p["manipulability_translational"]),
@@ -141,7 +141,7 @@ class PathDistance:
             with m for prismatic joints].
         sigma_min_scaled: σ_min(J_L), the spectral-norm distance of J_L to the nearest
             rank-deficient matrix (Eckart–Young).
-        inverse_condition: σ_min/σ_max of J_L.
+        inverse_condition_scaled: σ_min/σ_max of J_L.
         manipulability: Yoshikawa w of the raw J.
         joint_distance: σ_min(J_L)/‖∇_q σ_min(J_L)‖, a first-order estimate of the
             joint-space distance to the singular set [rad].
@@ -151,7 +151,7 @@ class PathDistance:
 
     s: np.ndarray
     sigma_min_scaled: np.ndarray
-    inverse_condition: np.ndarray
+    inverse_condition_scaled: np.ndarray
     manipulability: np.ndarray
     joint_distance: np.ndarray
     kind_code: np.ndarray
@@ -188,7 +188,7 @@ def path_distance(chain: Chain, qs: ArrayLike, *, length: float | None = None, n
     ds = np.linalg.norm(np.diff(a, axis=0), axis=-1)
     return PathDistance(
         s=_ro(np.concatenate([[0.0], np.cumsum(ds)])), sigma_min_scaled=_ro(smin),
-        inverse_condition=_ro(_cond(sv[..., 0], smin, True)),
+        inverse_condition_scaled=_ro(_cond(sv[..., 0], smin, True)),
         manipulability=_ro(core["manipulability"]), joint_distance=_ro(jd),
         kind_code=_ro(core["kind_code"]), closest=int(np.argmin(smin)))
 
