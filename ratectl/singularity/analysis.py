@@ -30,6 +30,7 @@ from .measures import (
     _cond,
     _fast_singular_values,
     _ro,
+    check_chain,
 )
 from .structure import ArmStructure, _geometry, _lines, structure
 
@@ -367,6 +368,7 @@ def analyze(chain: Chain, q: ArrayLike, *, length: float | None = None, rtol: fl
     Returns:
         A frozen `SingularityReport`.
     """
+    check_chain(chain)
     a = chain.check_q(q)
     if a.ndim != 1:
         raise InputError(f"analyze takes one configuration of shape ({chain.dof},); "

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
-from .measures import _BOUNDARY, _ELBOW, _RANKDEF, _SHOULDER, _WRIST, KINDS, _ro
+from .measures import _BOUNDARY, _ELBOW, _RANKDEF, _SHOULDER, _WRIST, KINDS, _ro, check_chain
 from .scan import scan
 
 if TYPE_CHECKING:
@@ -95,6 +95,7 @@ def workspace_map(chain: Chain, *, joints: tuple[int, int] | None = None, plane:
         length: characteristic length L [m] for the scaled measures.
         rng: seed or Generator for plane mode.
     """
+    check_chain(chain)
     if (joints is None) == (plane is None):
         raise InputError("give exactly one of joints=(i, j) or plane='xz'/'xy'/'yz'",
                          argument="joints", value=(joints, plane))

@@ -80,6 +80,15 @@ def _scaled(J: np.ndarray, length) -> np.ndarray:
     return out
 
 
+def check_chain(chain: Any) -> None:
+    """`InputError` unless ``chain`` is a `ratectl.Chain`."""
+    from ..model.chain import Chain
+
+    if not isinstance(chain, Chain):
+        raise InputError(f"chain must be a ratectl.Chain (e.g. rc.robots.ur5e()), got {chain!r}"[:200],
+                         argument="chain", value=chain)
+
+
 def _jacobian_of(J: Any, q: Any) -> np.ndarray:
     """The Jacobian of a measure's first arguments: ``J`` itself, or ``chain.jacobian(q)``
     when the first argument is a `Chain` (then ``q`` is required)."""

@@ -22,6 +22,7 @@ from .measures import (
     _cond,
     _ro,
     _scaled,
+    check_chain,
 )
 
 if TYPE_CHECKING:
@@ -95,6 +96,7 @@ def scan(chain: Chain, qs: ArrayLike, *, length: float | None = None, rtol: floa
         A frozen `ScanResult`; entry ``[i]`` equals the corresponding field of
         ``analyze(chain, qs[i], ...)``.
     """
+    check_chain(chain)
     a = chain.check_q(qs, name="qs")
     L = _check_options(chain, length, rtol, near, factor_tol)
     batch = a.shape[:-1]
@@ -170,6 +172,7 @@ def path_distance(chain: Chain, qs: ArrayLike, *, length: float | None = None, n
     (σ_min / ‖∂σ_min/∂q‖, with ∂σ_min/∂q_k = u_minᵀ H_k v_min from the kinematic
     Hessian) and the kind at each configuration.
     """
+    check_chain(chain)
     a = chain.check_q(qs, name="qs")
     if a.ndim != 2:
         raise InputError(f"qs must be a path of shape (N, {chain.dof}), got {a.shape}",
