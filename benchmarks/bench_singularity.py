@@ -106,7 +106,7 @@ def figure(path: str) -> None:
     axes[0].set_title("UR5e: σ_min(J_L) over q2, q3 (q1 = 0, q4 = −1.4, q5 = 1, q6 = 0);\n"
                       "outlined: near-singular (σ_min < 0.01) by kind", fontsize=9)
     pm = S.workspace_map(arm, plane="xz", offset=0.1333, slab=0.03, resolution=81, samples=6_000_000,
-                         measure="inverse_condition")
+                         measure="inverse_condition_scaled")
     S.plot_workspace_map(pm, ax=axes[1], cmap="magma")
     axes[1].set_aspect("equal")
     axes[1].set_title("UR5e: best 1/κ(J_L) with the tool origin in the plane y = 0.133 m (±15 mm)\n"

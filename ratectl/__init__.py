@@ -26,9 +26,7 @@ use, so ``import ratectl`` stays cheap and optional extras (matplotlib, mujoco, 
 only needed by the functions that use them.
 """
 
-from __future__ import annotations
-
-import importlib
+import importlib as _importlib
 
 from . import errors, kinematics, spatial
 from .errors import (
@@ -76,12 +74,12 @@ __all__ = [
 
 def __getattr__(name: str):
     if name in _LAZY_ATTRS:
-        module = importlib.import_module(f".{_LAZY_ATTRS[name]}", __name__)
+        module = _importlib.import_module(f".{_LAZY_ATTRS[name]}", __name__)
         value = getattr(module, name)
         globals()[name] = value
         return value
     if name in _LAZY_MODULES:
-        module = importlib.import_module(f".{name}", __name__)
+        module = _importlib.import_module(f".{name}", __name__)
         globals()[name] = module
         return module
     raise AttributeError(f"module 'ratectl' has no attribute {name!r}")

@@ -8,7 +8,7 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["positive_number"]
+__all__ = ["positive_number", "real_array"]
 
 
 def positive_number(name: str, value: object, *, allow_zero: bool = False, allow_inf: bool = False,
@@ -33,3 +33,18 @@ def positive_number(name: str, value: object, *, allow_zero: bool = False, allow
         kind += " number (inf allowed)" if allow_inf else " finite number"
         raise InputError(f"{name} must be a {kind}{unit}, got {value!r}", argument=name, value=value)
     return v
+
+
+def real_array(name: str, value: object, what: str) -> np.ndarray:
+    """``value`` as a float64 array; text, complex numbers and ragged or non-numeric
+    sequences raise `InputError` naming ``name`` and saying it must be ``what`` (e.g.
+    ``"a (6,) vector"``) "of real numbers" — never converted (``float("1")`` would
+    parse, a complex number would lose its imaginary part). Shape and finiteness are the
+    caller's to check."""
+    try:
+        if isinstance(value, str | bytes) or np.iscomplexobj(value):  # type: ignore[arg-type]
+            raise TypeError(name)
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name} must be {what} of real numbers, got {value!r}"[:300], argument=name,
+                         value=value) from None

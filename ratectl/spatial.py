@@ -315,9 +315,11 @@ def rigid_transform_defect(T: ArrayLike, *, tolerance: float = 1e-6) -> str | No
     mirror (det R = −1) are both refused.
     """
     try:
+        if isinstance(T, str | bytes) or np.iscomplexobj(T):
+            raise TypeError("T")
         A = np.asarray(T, dtype=float)
-    except (TypeError, ValueError):
-        return f"is not a numeric array (got {type(T).__name__})"
+    except (TypeError, ValueError, OverflowError):
+        return f"is not an array of real numbers (got {type(T).__name__})"
     if A.shape != (4, 4):
         return f"must be a 4x4 homogeneous transform, got shape {A.shape}"
     if not np.all(np.isfinite(A)):

@@ -112,7 +112,7 @@ def parse_q(tokens: Sequence[str], chain: Chain, *, degrees: bool = False, seed:
             lo_i, hi_i = float(chain.lower[i]), float(chain.upper[i])
             if not lo_i <= q[i] <= hi_i:
                 unit = "m" if chain.prismatic[i] else "rad"
-                warn(f"q{i + 1} ({chain.joint_names[i]}) = {q[i]:.4g} {unit} is outside its limits "
+                warn(f"joint {chain.joint_names[i]!r} = {q[i]:.4g} {unit} is outside its limits "
                      f"[{lo_i:.4g}, {hi_i:.4g}] {unit}")
     return q
 
@@ -276,11 +276,23 @@ def _cmd_scan(args) -> int:
     chain = load_arm(args.arm, tip=args.tip)
     if args.samples < 1:
         raise _Fail(f"--samples must be a positive count, got {args.samples}")
-    if args.plot and (not all(1 <= j <= chain.dof for j in args.joints) or args.joints[0] == args.joints[1]):
-        raise _Fail(f"--joints must be two different joints in 1..{chain.dof}, got {args.joints}")
+    from ..errors import InputError
+    from ..singularity import KINDS, scan
+    from ..singularity.maps import joint_pair
+
+    raw = args.joints if args.joints is not None else (["2", "4"] if chain.dof >= 5 else ["0", "1"])
+    try:
+        joints = joint_pair(chain, [int(v) if v.lstrip("+-").isdigit() else v for v in raw])
+    except InputError as exc:
+        raise _Fail(f"--joints: {exc}") from None
+    ranges = None
+    if args.map_range is not None:
+        v = [_number(w) for w in args.map_range]
+        ranges = ((v[0], v[1]), (v[2], v[3]))
+        if not (v[0] < v[1] and v[2] < v[3]):
+            raise _Fail(f"--range must give I_LO < I_HI and J_LO < J_HI, got {args.map_range}")
     if args.plot:
         _check_output(args.plot, "--plot")
-    from ..singularity import KINDS, scan
 
     rng = np.random.default_rng(args.seed)
     chunk = 50_000
@@ -312,9 +324,10 @@ def _cmd_scan(args) -> int:
     if args.plot:
         from ..singularity import plot_workspace_map, workspace_map
 
-        joints = tuple(j - 1 for j in args.joints)
-        _progress(f"workspace map over q{args.joints[0]}, q{args.joints[1]}")
-        wmap = workspace_map(chain, joints=joints, measure="sigma_min_scaled", resolution=args.resolution)
+        names = chain.joint_names
+        _progress(f"workspace map over {names[joints[0]]}, {names[joints[1]]}")
+        wmap = workspace_map(chain, joints=joints, ranges=ranges, measure="sigma_min_scaled",
+                             resolution=args.resolution)
         import matplotlib
 
         matplotlib.use("Agg")
@@ -462,6 +475,20 @@ def _view_args(sp: argparse.ArgumentParser) -> None:
                     help="stop the view after this many seconds (default: run until Ctrl-C)")
 
 
+def _arm_args(sp: argparse.ArgumentParser, arms: str, *, with_q: bool) -> None:
+    """The ARM argument (and, ``with_q``, the configuration options) of a command."""
+    sp.add_argument("arm", metavar="ARM", help=f"built-in arm ({arms}) or a .urdf/.xml file")
+    sp.add_argument("--tip", help="tool link (URDF) or body (MJCF) when ARM is a file")
+    if with_q:
+        sp.add_argument("--q", nargs="+", default=["zero"], metavar="VALUE",
+                        help="joint positions, one per joint, in rad (m for prismatic joints); "
+                             "'pi/2' style values are accepted; or one word: zero (default), mid "
+                             "(middle of the limits), random")
+        sp.add_argument("--deg", action="store_true", help="revolute values of --q are in degrees")
+        sp.add_argument("--seed", type=_int_in(0, None, "a seed"), default=None,
+                        help="seed for --q random (a whole number >= 0)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argparse parser of the ``ratectl`` command."""
     arms = ", ".join(robots.BUILTIN)
@@ -473,18 +500,6 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=f"Built-in arms: {arms}. ARM may also be a .urdf or MJCF .xml file. "
                "Run 'ratectl COMMAND --help' for the options of a command.")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
-
-    def arm_args(sp: argparse.ArgumentParser, *, with_q: bool) -> None:
-        sp.add_argument("arm", metavar="ARM", help=f"built-in arm ({arms}) or a .urdf/.xml file")
-        sp.add_argument("--tip", help="tool link (URDF) or body (MJCF) when ARM is a file")
-        if with_q:
-            sp.add_argument("--q", nargs="+", default=["zero"], metavar="VALUE",
-                            help="joint positions, one per joint, in rad (m for prismatic joints); "
-                                 "'pi/2' style values are accepted; or one word: zero (default), mid "
-                                 "(middle of the limits), random")
-            sp.add_argument("--deg", action="store_true", help="revolute values of --q are in degrees")
-            sp.add_argument("--seed", type=_int_in(0, None, "a seed"), default=None,
-                            help="seed for --q random (a whole number >= 0)")
 
     sp = sub.add_parser(
         "demo", help="compare five methods on a line past a wrist singularity (the main demo)",
@@ -513,7 +528,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "singularity with arrows along the lost directions, and tick 'servo to the "
                     "target' to make the arm follow the target you drag (resolved-rate control "
                     "at 100 Hz). Needs the view extra: pip install -e '.[view]'.")
-    arm_args(sp, with_q=True)
+    _arm_args(sp, arms, with_q=True)
     sp.add_argument("--servo", action="store_true", help="start with servo to the target on")
     _view_args(sp)
     sp.set_defaults(func=_cmd_view)
@@ -521,13 +536,13 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser("info", help="describe an arm: DH table, limits, structure",
                         description="Print an arm's kinematic table, joint limits, reach, "
                                     "characteristic length and wrist structure.")
-    arm_args(sp, with_q=False)
+    _arm_args(sp, arms, with_q=False)
     sp.set_defaults(func=_cmd_info)
 
     sp = sub.add_parser("jacobian", help="tool pose and geometric Jacobian at q",
                         description="Print the tool pose and the 6xn geometric Jacobian (rows "
                                     "[v; w]) at the joint positions --q, with its singular values.")
-    arm_args(sp, with_q=True)
+    _arm_args(sp, arms, with_q=True)
     sp.add_argument("--frame", choices=["base", "tool"], default="base",
                     help="axes of the Jacobian rows (default base)")
     sp.add_argument("--point", nargs=3, type=_finite_float, metavar=("X", "Y", "Z"),
@@ -539,7 +554,7 @@ def build_parser() -> argparse.ArgumentParser:
                                     "manipulability, kind of singularity (wrist, elbow, shoulder, "
                                     "boundary, ...), a plain-language reason, lost task directions "
                                     "and joint-space null vectors.")
-    arm_args(sp, with_q=True)
+    _arm_args(sp, arms, with_q=True)
     sp.set_defaults(func=_cmd_singularity)
 
     sp = sub.add_parser("scan", help="singularity statistics over random configurations",
@@ -547,15 +562,19 @@ def build_parser() -> argparse.ArgumentParser:
                                     "percentiles of sigma_min and manipulability and how many are "
                                     "near each kind of singularity. --plot also draws a map of "
                                     "sigma_min over two joints.")
-    arm_args(sp, with_q=False)
+    _arm_args(sp, arms, with_q=False)
     sp.add_argument("--samples", type=_int_in(1, MAX_SAMPLES, "the number of samples"), default=100_000,
                     help="number of configurations (default 100000)")
     sp.add_argument("--seed", type=_int_in(0, None, "a seed"), default=0,
                     help="random seed, a whole number >= 0 (default 0)")
     sp.add_argument("--plot", metavar="FILE", help="write a workspace map (PNG) to FILE")
-    sp.add_argument("--joints", nargs=2, type=_int_in(1, None, "a joint number"), default=[3, 5],
-                    metavar=("I", "J"),
-                    help="1-based joints of the map's axes (default 3 5)")
+    sp.add_argument("--joints", nargs=2, default=None, metavar=("I", "J"),
+                    help="the map's two joints: joint names, or 0-based indices (default 2 4 on arms "
+                         "with 5 or more joints, else 0 1)")
+    sp.add_argument("--range", nargs=4, default=None, metavar=("I_LO", "I_HI", "J_LO", "J_HI"),
+                    dest="map_range",
+                    help="the map's range of each joint in rad (m for prismatic joints), 'pi/2' style "
+                         "values accepted (default: the joints' limits; -pi..pi without limits)")
     sp.add_argument("--resolution", type=_int_in(*RESOLUTION_RANGE, "the resolution"), default=121,
                     help=f"map grid points per axis, {RESOLUTION_RANGE[0]} to {RESOLUTION_RANGE[1]} "
                          "(default 121)")

@@ -10,7 +10,6 @@ own collision geometry, computed by coal (the ``collision`` extra:
 Importing this package does not import coal; building a model does.
 """
 
-from __future__ import annotations
 
 from .model import CollisionModel, CollisionRows, Shape
 from .self_collision import Obstacles, SelfCollision

@@ -7,8 +7,6 @@
 Braking toward position limits lives with the limits (`ratectl.model.limits`).
 """
 
-from __future__ import annotations
-
 from .command import STATUSES, Command
 from .controller import ResolvedRateController, default_solver
 from .smoothing import JointTrajectory, VelocityFilter, move, stop

@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike
 
 from ..arrays import read_only
 from ..errors import InputError, SolverError
+from ..model.jerk_profile import PiecewiseJerk
 
 __all__ = ["VelocityFilter", "ProgressProfile", "JointTrajectory", "move", "stop"]
 
@@ -266,7 +267,9 @@ class ProgressProfile:
 
 @dataclass(frozen=True, kw_only=True)
 class JointTrajectory:
-    """A jerk-limited joint trajectory computed by Ruckig (state to state).
+    """A jerk-limited joint trajectory computed by Ruckig (state to state), kept as its
+    phases of constant jerk (`ratectl.model.jerk_profile.PiecewiseJerk`: no Ruckig object
+    is held).
 
     Attributes:
         duration: [s].
@@ -286,8 +289,7 @@ class JointTrajectory:
     def at(self, t: float):
         """``(q, q̇, q̈)`` at time ``t`` [s] (clamped to [0, duration])."""
         t = min(max(float(t), 0.0), self.duration)
-        p, v, a = self._traj.at_time(t)[:3]
-        return np.array(p), np.array(v), np.array(a)
+        return self._traj.at_array(t)
 
     def sample(self, dt: float):
         """Arrays ``(t, q, q̇, q̈)`` every ``dt`` [s], including both ends."""
@@ -330,7 +332,7 @@ def move(q_start: ArrayLike, q_goal: ArrayLike, *, vmax: ArrayLike, amax: ArrayL
     inp.max_acceleration = _limit_array(amax, n, "amax").tolist()
     inp.max_jerk = _limit_array(jmax, n, "jmax").tolist()
     traj = _calculate(inp, n, "the joint move", {"q_start": q0, "q_goal": q1})
-    return JointTrajectory(duration=float(traj.duration), start=q0, goal=q1, _traj=traj)
+    return JointTrajectory(duration=float(traj.duration), start=q0, goal=q1, _traj=PiecewiseJerk(traj))
 
 
 def _calculate(inp, n: int, what: str, problem: dict):
@@ -363,5 +365,6 @@ def stop(q: ArrayLike, qd: ArrayLike, *, qdd: ArrayLike | None = None, amax: Arr
     inp.max_acceleration = _limit_array(amax, n, "amax").tolist()
     inp.max_jerk = _limit_array(jmax, n, "jmax").tolist()
     traj = _calculate(inp, n, "the stop", {"q": q, "qd": qd})
-    p_end = np.array(traj.at_time(traj.duration)[0])
-    return JointTrajectory(duration=float(traj.duration), start=q, goal=p_end, _traj=traj)
+    profile = PiecewiseJerk(traj)
+    p_end = profile.at_array(profile.duration)[0]
+    return JointTrajectory(duration=profile.duration, start=q, goal=p_end, _traj=profile)

@@ -14,10 +14,8 @@
 `ratectl.run` drives any of them.
 """
 
-from __future__ import annotations
-
-import importlib
-from typing import Any
+import importlib as _importlib
+from typing import Any as _Any
 
 from .base import Driver, RobotState
 from .franka import FrankyDriver, FrankySim, franky_chain
@@ -34,10 +32,10 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> _Any:
     # a re-export from the interop layer, resolved on first use (no import at load time)
     if name == "MujocoDriver":
-        value = importlib.import_module("ratectl.interop.mujoco.driver").MujocoDriver
+        value = _importlib.import_module("ratectl.interop.mujoco.driver").MujocoDriver
         globals()[name] = value
         return value
     raise AttributeError(f"module 'ratectl.drivers' has no attribute {name!r}")

@@ -18,6 +18,7 @@ import time
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import positive_number
 from ..errors import DriverError, InputError
 from ..model import Chain
 from .base import RobotState
@@ -75,20 +76,31 @@ class ScriptedDriver:
         q = chain.check_q(q0, name="q0").astype(float).reshape(-1).copy()
         if q.shape != (chain.dof,):
             raise InputError(f"q0 must have shape ({chain.dof},), got {q.shape}", argument="q0", value=q0)
-        if not 0.0 <= drop <= 1.0:
+        read_delay = positive_number("read_delay", read_delay, allow_zero=True, unit="[s]")
+        drop = positive_number("drop", drop, allow_zero=True)
+        if not drop <= 1.0:
             raise InputError(
                 f"drop must be a probability in [0, 1], got {drop!r}", argument="drop", value=drop
             )
+        if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+            raise InputError(f"seed must be a non-negative integer, got {seed!r}", argument="seed",
+                             value=seed)
+        stale_after, nan_after, fail_after = (
+            math.inf if v is None else positive_number(name, v, allow_zero=True, allow_inf=True,
+                                                       unit="[s]")
+            for name, v in (("stale_after", stale_after), ("nan_after", nan_after),
+                            ("fail_after", fail_after))
+        )
         self._q = q
         self._qd = np.zeros(chain.dof)
         self._t_cmd: float | None = None
         self._t0: float | None = None
         self.strict = bool(strict)
-        self.read_delay = float(read_delay)
-        self.drop = float(drop)
-        self.stale_after = math.inf if stale_after is None else float(stale_after)
-        self.nan_after = math.inf if nan_after is None else float(nan_after)
-        self.fail_after = math.inf if fail_after is None else float(fail_after)
+        self.read_delay = read_delay
+        self.drop = drop
+        self.stale_after = stale_after
+        self.nan_after = nan_after
+        self.fail_after = fail_after
         self.freeze_joint: tuple[int, float] | None = None
         if freeze_joint is not None:
             try:
@@ -100,7 +112,7 @@ class ScriptedDriver:
                 raise InputError(f"freeze_joint: joint index must be in 0..{chain.dof - 1}, got {j}",
                                  argument="freeze_joint", value=freeze_joint)
             self.freeze_joint = (j, t_freeze)
-        self._rng = np.random.default_rng(seed)
+        self._rng = np.random.default_rng(int(seed))
         self._last: RobotState | None = None
         self.commands: list[tuple[float, np.ndarray]] = []
         self.stops = 0
@@ -157,7 +169,13 @@ class ScriptedDriver:
         t = self._now()
         if t >= self.fail_after:
             raise ConnectionResetError("scripted connection reset by peer")
-        v = np.asarray(qd, dtype=float).reshape(-1)
+        try:
+            if isinstance(qd, str | bytes) or np.iscomplexobj(qd):
+                raise TypeError("qd")
+            v = np.asarray(qd, dtype=float).reshape(-1)
+        except (TypeError, ValueError, OverflowError):
+            raise InputError(f"qd must be a ({self._chain.dof},) vector of joint velocities [rad/s or "
+                             f"m/s], got {qd!r}"[:200], argument="qd", value=qd) from None
         if v.shape != (self._chain.dof,):
             raise InputError(
                 f"qd must have shape ({self._chain.dof},), got {v.shape}", argument="qd", value=qd
@@ -169,8 +187,8 @@ class ScriptedDriver:
             if over.any():
                 j = int(np.flatnonzero(over)[0])
                 raise DriverError(
-                    f"refused joint velocity {v[j]:.6g} on joint {j + 1}: exceeds vmax "
-                    f"{self._chain.vmax[j]:.6g}",
+                    f"refused joint velocity {v[j]:.6g} on joint {self._chain.joint_names[j]!r}: "
+                    f"exceeds vmax {self._chain.vmax[j]:.6g}",
                     driver="ScriptedDriver",
                 )
         self._advance(t)

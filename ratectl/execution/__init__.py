@@ -7,8 +7,6 @@
 * `record` — `Execution`, the record every run returns.
 """
 
-from __future__ import annotations
-
 from .path_following import follow
 from .record import Execution
 from .run import run

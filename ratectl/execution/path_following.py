@@ -114,9 +114,7 @@ def _validate(chain, path, q0, dt, controller):
     if not isinstance(path, Path):
         raise InputError(f"path must be a ratectl.paths.Path, got {type(path).__name__}", argument="path",
                          value=path)
-    dt = float(dt)
-    if not (dt > 0.0 and math.isfinite(dt)):
-        raise InputError(f"dt must be a positive period [s], got {dt!r}", argument="dt", value=dt)
+    dt = positive_number("dt", dt, unit="[s]")
     path.steps(dt)  # the nominal schedule is bounded up front (a clear error for dt = 1e-9)
     q = chain.check_q(q0).astype(float).copy()
     if q.shape != (chain.dof,):

@@ -53,7 +53,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TextIO
+from typing import Any, TextIO
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -66,7 +66,7 @@ from ..model import Chain
 from ..paths import Path
 from ..planning import Governor, GovernorPlan
 from ..singularity import analyze
-from ..spatial import pose_error
+from ..spatial import pose_error, rigid_transform_defect
 from .following import FollowWatch as _FollowWatch
 from .record import Execution
 from .reference import PathReference
@@ -198,19 +198,39 @@ def _reference(
             )
         return _Reference("path", path.duration + settle if duration is None else duration, path=path)
     if target is not None:
-        Td = np.asarray(target, dtype=float)
-        if Td.shape != (4, 4) or not np.all(np.isfinite(Td)):
-            raise InputError("target must be a finite 4x4 pose", argument="target", value=target)
+        defect = rigid_transform_defect(target)
+        if defect is not None:
+            raise InputError(f"target {defect}", argument="target", value=target)
+        Td = np.array(target, dtype=float)
         return _Reference("target", 10.0 if duration is None else duration, target=Td)
     limit = math.inf if duration is None else duration
     if callable(twist):
         return _Reference("twist", limit, twist_fn=twist)
-    xi = np.asarray(twist, dtype=float)
+    try:
+        if isinstance(twist, str | bytes) or np.iscomplexobj(twist):  # type: ignore[arg-type]
+            raise TypeError("twist")
+        xi = np.asarray(twist, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        xi = np.full(1, np.nan)
     if xi.shape != (6,) or not np.all(np.isfinite(xi)):
         raise InputError(
             "twist must be a finite 6-vector [v; ω] or a callable twist(t)", argument="twist", value=twist
         )
     return _Reference("twist", limit, twist=xi)
+
+
+def _tolerance(tolerance: Any) -> tuple[float, float]:
+    """``tolerance`` as (position [m], orientation [rad]), both positive finite numbers."""
+    if isinstance(tolerance, str | bytes) or not hasattr(tolerance, "__len__") or len(tolerance) != 2:
+        raise InputError(
+            f"tolerance must be a pair (position [m], orientation [rad]) of positive numbers, "
+            f"got {tolerance!r}",
+            argument="tolerance",
+            value=tolerance,
+        )
+    pos, ori = tolerance
+    return (_positive("tolerance[0] (position)", pos, unit="[m]"),
+            _positive("tolerance[1] (orientation)", ori, unit="[rad]"))
 
 
 def _first_state(driver: Driver, ref: _Reference) -> RobotState:
@@ -243,6 +263,12 @@ def _first_state(driver: Driver, ref: _Reference) -> RobotState:
 
 def _controller(controller: ResolvedRateController | None, chain: Chain) -> ResolvedRateController:
     """The controller for ``chain`` (a new one by default), reset."""
+    if controller is not None and not isinstance(controller, ResolvedRateController):
+        raise InputError(
+            f"controller must be a ratectl.ResolvedRateController or None, got {controller!r}"[:200],
+            argument="controller",
+            value=controller,
+        )
     ctrl = controller if controller is not None else ResolvedRateController(chain)
     if getattr(ctrl, "chain", chain).dof != chain.dof:
         raise InputError(
@@ -348,7 +374,7 @@ def run(
             callable returns None, or on Ctrl-C).
         timeout: the watchdog [s]: no fresh state for longer → safe halt.
         settle: time allowed after a path's end to converge on the end pose [s].
-        tolerance: (position [m], orientation [rad]) for "reached".
+        tolerance: (position [m], orientation [rad]) for "reached", both positive.
         status_line: a live one-line status on stderr; None (default) shows it when stderr is
             a terminal and the run may last longer than 2 s.
         on_interrupt: ``"raise"`` (re-raise Ctrl-C after stopping the robot, with the record
@@ -384,18 +410,17 @@ def run(
     rate_hz = _positive("rate_hz", rate_hz)
     timeout = _positive("timeout", timeout)
     duration = None if duration is None else _positive("duration", duration)
-    settle = float(settle)
-    if not (settle >= 0.0 and math.isfinite(settle)):
-        raise InputError(
-            f"settle must be a non-negative time [s], got {settle!r}", argument="settle", value=settle
-        )
+    settle = _positive("settle", settle, allow_zero=True, unit="[s]")
     if on_interrupt not in ("raise", "return"):
         raise InputError(
             f"on_interrupt must be 'raise' or 'return', got {on_interrupt!r}",
             argument="on_interrupt",
             value=on_interrupt,
         )
-    pos_tol, ori_tol = (float(v) for v in tolerance)
+    pos_tol, ori_tol = _tolerance(tolerance)
+    if status_line is not None and not isinstance(status_line, bool | np.bool_):
+        raise InputError(f"status_line must be True, False or None, got {status_line!r}",
+                         argument="status_line", value=status_line)
     period = 1.0 / rate_hz
     ref = _reference(path, target, twist, duration, settle)
     ctrl = _controller(controller, chain)

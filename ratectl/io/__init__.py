@@ -9,8 +9,6 @@ Build chains with `ratectl.Chain.from_urdf` / `ratectl.Chain.from_mjcf`.
 Export to MJCF is `ratectl.interop.mujoco.to_mjcf`.
 """
 
-from __future__ import annotations
-
 from .description import JointDescription, ModelDescription, axis_rotation
 from .mjcf import compile_mjcf, mjcf_joint_addresses, parse_mjcf
 from .urdf import parse_urdf

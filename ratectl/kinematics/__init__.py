@@ -12,8 +12,6 @@ The functions take the chain as their first argument; `ratectl.Chain` exposes
 them as methods.
 """
 
-from __future__ import annotations
-
 from .derivatives import jacobian_dot, joint_torques
 from .forward import (
     KERNEL_MODE,

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import real_array
 from ..errors import InputError
 from .forward import check_frame, check_point, jacobian, rotate_jacobian, shift_jacobian
 from .reference import all_frames
@@ -86,7 +87,7 @@ def joint_torques(chain: Chain, q: ArrayLike, wrench: ArrayLike, *, frame: str =
     Jacobian. Returns (..., n) in N·m (revolute) or N (prismatic).
     """
     J = jacobian(chain, q, frame=frame, point=point)
-    F = np.asarray(wrench, dtype=float)
+    F = real_array("wrench", wrench, "a (..., 6) wrench [f; τ]")
     if F.shape[-1:] != (6,) or not np.all(np.isfinite(F)):
         raise InputError(f"wrench must be finite with shape (..., 6) = [f; τ], got {F.shape}",
                          argument="wrench", value=wrench)

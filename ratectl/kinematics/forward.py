@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import real_array
 from ..errors import InputError
 from .codegen import compile_kernel
 from .reference import check_prismatic_range, reference_fk_jacobian
@@ -206,7 +207,11 @@ def _batched(chain, flat: np.ndarray, what: str, parts) -> None:
     output entry into a contiguous work row; per chunk, one transposing copy per part
     moves the rows into the result (about 0.3 ns per entry, against about 0.65 ns for
     a ufunc writing with the result's stride).
+
+    Every batched evaluation passes here, so the prismatic range check
+    (`check_prismatic_range`) is made here, once for all of them.
     """
+    check_prismatic_range(chain, flat)
     B = flat.shape[0]
     kern = _kernel(chain, what, True)
     nwork = kern.__nwork__
@@ -239,7 +244,6 @@ def _run(chain, q, what: str, width: int):
     batch = a.shape[:-1]
     if batch == ():
         return np.array(_kernel(chain, what, False)(*a.tolist())), ()
-    check_prismatic_range(chain, a)
     flat = a.reshape(-1, chain._n)
     out = np.empty((flat.shape[0], width))
     if out.size:
@@ -260,7 +264,7 @@ def check_frame(frame: str) -> None:
 
 
 def check_point(point: ArrayLike) -> np.ndarray:
-    p = np.asarray(point, dtype=float)
+    p = real_array("point", point, "a 3-vector in tool-frame coordinates [m]")
     if p.shape != (3,) or not np.all(np.isfinite(p)):
         raise InputError("point must be a finite 3-vector in tool-frame coordinates [m], "
                          f"got {point!r}", argument="point", value=point)

@@ -5,8 +5,6 @@
 * `robots` — UR5e, Panda, PUMA 560, Stanford, iiwa7, RPR, planar 2R.
 """
 
-from __future__ import annotations
-
 from . import robots
 from .chain import Chain
 from .joints import DH, JOINT_KINDS, MDH, Joint

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 
 from .. import kinematics
 from ..arrays import read_only
+from ..checks import positive_number, real_array
 from ..errors import ImportModelError, InputError, ModelError
 from ..io.description import ModelDescription, VisualDescription
 from .joints import DH, MDH, Joint, check_transform
@@ -64,10 +65,7 @@ class Chain:
         self._prismatic = np.array([j.kind == "prismatic" for j in joints])
         if characteristic_length is None:
             characteristic_length = self.reach()
-        if not (characteristic_length > 0 and math.isfinite(characteristic_length)):
-            raise ModelError("characteristic_length must be a positive length [m], "
-                             f"got {characteristic_length!r}", field="characteristic_length")
-        self._length = float(characteristic_length)
+        self._length = positive_number("characteristic_length", characteristic_length, unit="[m]")
         self._visuals = tuple(visuals)
         self._kernels: dict = {}
         self._links = _check_links(links, self._n)
@@ -96,6 +94,9 @@ class Chain:
 
     @staticmethod
     def _check_rows(rows, kind):
+        if isinstance(rows, str | bytes) or not hasattr(rows, "__iter__"):
+            raise ModelError(f"a DH table must be a list of {kind.__name__} rows, got {rows!r}"[:200],
+                             field="rows", value=rows)
         rows = list(rows)
         if not rows:
             raise ModelError("a DH table needs at least one row", field="rows")
@@ -191,11 +192,7 @@ class Chain:
         n = self._n
         cols = {}
         if qlim is not None:
-            try:
-                a = np.asarray(qlim, dtype=float)
-            except (TypeError, ValueError):
-                raise InputError(f"qlim must be a pair (lower, upper) or ({n}, 2) numbers, got {qlim!r}",
-                                 argument="qlim", value=qlim) from None
+            a = real_array("qlim", qlim, f"a pair (lower, upper) or ({n}, 2) numbers")
             if a.shape == (2,):
                 a = np.broadcast_to(a, (n, 2))
             if a.shape != (n, 2):
@@ -205,11 +202,7 @@ class Chain:
         for key, v in (("vmax", vmax), ("amax", amax), ("jmax", jmax)):
             if v is None:
                 continue
-            try:
-                a = np.asarray(v, dtype=float)
-            except (TypeError, ValueError):
-                raise InputError(f"{key} must be a number or {n} numbers, got {v!r}", argument=key,
-                                 value=v) from None
+            a = real_array(key, v, f"a number or {n} numbers")
             if a.shape not in ((), (n,)):
                 raise InputError(f"{key} must be a scalar or have shape ({n},), got shape {a.shape}",
                                  argument=key, value=v)

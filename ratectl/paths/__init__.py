@@ -27,8 +27,6 @@ Time laws (``law=``):
   which the peak speed 15L/(8T) ≤ v and peak acceleration 10L/(√3 T²) ≤ a.
 """
 
-from __future__ import annotations
-
 from .arc import Arc
 from .base import MAX_STEPS, Path
 from .line import Line

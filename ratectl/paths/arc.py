@@ -54,11 +54,12 @@ class Arc(Path):
             raise InputError(f"angle must be non-zero with |angle| ≤ 2π [rad], got {angle!r}",
                              argument="angle", value=angle)
         p0 = self.T_start[:3, 3]
-        r0 = p0 - c
-        r0 = r0 - (r0 @ k) * k  # radial part
-        self.centre = c + ((p0 - c) @ k) * k
+        with np.errstate(over="ignore", invalid="ignore"):  # far out: refused by _setup (length)
+            r0 = p0 - c
+            r0 = r0 - (r0 @ k) * k  # radial part
+            self.centre = c + ((p0 - c) @ k) * k
+            self.radius = math.hypot(*r0.tolist())
         self.axis, self.angle, self.radial = k, angle, r0
-        self.radius = float(np.linalg.norm(r0))
         if self.radius < 1e-9:
             raise InputError("the start position lies on the arc axis (radius 0); give a centre "
                              "away from the start point", argument="centre", value=centre)
@@ -76,6 +77,8 @@ class Arc(Path):
         self.rot = _Geodesic(R0, w)
         rho = positive_number("rotation_length", rotation_length)
         L = math.hypot(self.radius * abs(angle), rho * self.rot.angle)
+        if not math.isfinite(L):
+            L = math.inf  # NaN from an overflowed centre: refused by _setup
         self._setup(L, speed=speed, acceleration=acceleration, jerk=jerk, law=law,
                     rotation_length=rotation_length)
 

@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike
 from ..checks import positive_number
 from ..errors import InputError
 from ..spatial import so3_exp, so3_log
+from .checks import _pose, _vec3
 from .time_laws import make_time_law
 
 __all__ = ['Path', 'MAX_STEPS']
@@ -19,6 +20,18 @@ __all__ = ['Path', 'MAX_STEPS']
 #: Default cap on the number of steps of a loop over a path (`Path.steps`): 10⁶
 #: (about 17 minutes at 1 kHz).
 MAX_STEPS = 1_000_000
+
+
+def _real(v, name: str) -> float:
+    """``v`` as a float; text and complex numbers are refused, not converted."""
+    if type(v) is float:
+        return v
+    try:
+        if isinstance(v, str | bytes) or np.iscomplexobj(v):
+            raise TypeError(name)
+        return float(v)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name} must be a number [m], got {v!r}"[:200], argument=name, value=v) from None
 
 
 # ---------------------------------------------------------------------- paths
@@ -40,6 +53,10 @@ class Path:
         self.rotation_length = positive_number("rotation_length", rotation_length)
         if law is None:
             law = "trapezoidal" if jerk is None else "jerk-limited"
+        if not (math.isfinite(length) and length < 1e100):
+            raise InputError(f"{type(self).__name__}: the path is {length:.3g} m long; a path must be "
+                             "shorter than 1e100 m (its poses are too far apart for floating point)",
+                             argument="length", value=length)
         self.length = float(length)
         self.law = make_time_law(law, self.length, speed=self.speed, acceleration=self.acceleration,
                                  jerk=self.jerk)
@@ -48,11 +65,13 @@ class Path:
     def _geometry(self, s: float):  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def _clamp(self, s) -> float:
-        s = float(s)
-        if not math.isfinite(s):
-            raise InputError(f"path parameter s must be finite, got {s!r}", argument="s", value=s)
-        return min(max(s, 0.0), self.length)
+    def _clamp(self, s, name: str = "s") -> float:
+        """``s`` as a float clamped to [0, length]; text, complex, NaN or inf raise."""
+        v = _real(s, name)
+        if not math.isfinite(v):
+            raise InputError(f"path parameter {name} must be a finite number [m], got {s!r}",
+                             argument=name, value=s)
+        return min(max(v, 0.0), self.length)
 
     @property
     def duration(self) -> float:
@@ -183,7 +202,7 @@ class Path:
                 break
             ds = -g / h if h > 1e-18 else -math.copysign(step, g)  # a cusp (dP/ds = 0): probe
             ds = max(-step, min(step, ds))
-            while True:
+            for _ in range(80):  # halving: ds reaches `tiny` long before 80 halvings
                 s_new = min(max(s + ds, lo), hi)
                 if abs(s_new - s) <= tiny:
                     return s, cur[3], cur[4]
@@ -191,6 +210,8 @@ class Path:
                 if new[0] <= f:
                     break
                 ds *= 0.5
+            else:
+                return s, cur[3], cur[4]
             converged = abs(s_new - s) <= 1e-12 * max(self.length, 1e-3)
             s, cur = s_new, new
             if converged:
@@ -198,14 +219,19 @@ class Path:
         return s, cur[3], cur[4]
 
     def _target(self, x: ArrayLike) -> tuple[np.ndarray, np.ndarray | None]:
-        """(position, rotation or None) of a point (3,) or a pose (4, 4)."""
-        a = np.asarray(x, dtype=float)
-        if a.shape == (4, 4):
+        """(position, rotation or None) of a point (3,) or a pose (4, 4), both finite (a pose
+        rigid)."""
+        try:
+            shape = np.shape(x)
+        except (TypeError, ValueError):  # a ragged sequence
+            shape = None
+        if shape == (4, 4):
+            a = _pose(x, "point")
             return a[:3, 3], a[:3, :3]
-        if a.shape != (3,):
-            raise InputError(f"expected a point (3,) or a pose (4, 4), got shape {a.shape}",
-                             argument="point", value=x)
-        return a, None
+        if shape == (3,):
+            return _vec3(x, "point"), None
+        raise InputError(f"expected a point (3,) or a rigid pose (4, 4), got {x!r}"[:200],
+                         argument="point", value=x)
 
     def _start_estimate(self, x: np.ndarray, Rx: np.ndarray | None) -> tuple[float, float] | None:
         """A closed-form (s, step) to start the global search from, or None (grid search)."""
@@ -222,10 +248,12 @@ class Path:
 
         Without ``s_hint``: the best of a grid of samples (101, plus the knots of a
         `Waypoints`), refined by Gauss–Newton steps — the global nearest point (the first
-        one where the path revisits a pose). With ``s_hint``: the local minimum reached
-        from it, within ``s_hint ± window`` (default: the whole path) — the search to use
-        along a motion, from the commanded s, where a path revisits a pose or turns back
-        on itself.
+        one where the path revisits a pose); a `Waypoints` path is searched segment by
+        segment and blend by blend. With ``s_hint`` (in [0, length], clamped): the local
+        minimum reached from it, within ``s_hint ± window`` (``window`` > 0 [m], default:
+        the whole path) — the search to use along a motion, from the commanded s, where a
+        path revisits a pose or turns back on itself. A point or pose with NaN or infinite
+        entries, a non-rigid pose, a NaN ``s_hint`` or a ``window`` ≤ 0 raise `InputError`.
         """
         return self._nearest(point, s_hint, window)[0]
 
@@ -233,13 +261,23 @@ class Path:
         """(s, e², θ²) of the nearest point (see `closest`)."""
         x, Rx = self._target(point)
         L = self.length
+        if window is not None:
+            window = positive_number("window", window, allow_inf=True, unit="[m]")
+        if s_hint is not None:
+            s_hint = self._clamp(s_hint, "s_hint")
         if L <= 0.0:
             return self._descend(0.0, x, Rx, 0.0, 0.0, 1e-9)
         if s_hint is not None:
-            s = self._clamp(s_hint)
-            w = L if window is None else float(window)
+            s = s_hint
+            w = L if window is None else min(window, L)
             lo, hi = max(0.0, s - w), min(L, s + w)
             return self._descend(s, x, Rx, lo, hi, max(min(w, L / 20.0), 1e-9))
+        return self._global_nearest(x, Rx)
+
+    def _global_nearest(self, x: np.ndarray, Rx: np.ndarray | None) -> tuple[float, float, float]:
+        """(s, e², θ²) of the global nearest point without a hint: a closed-form start
+        (`_start_estimate`) or the best of a grid of samples, refined by `_descend`."""
+        L = self.length
         start = self._start_estimate(x, Rx)
         if start is not None:
             return self._descend(start[0], x, Rx, 0.0, L, start[1])
@@ -252,10 +290,9 @@ class Path:
     def distance(self, T: ArrayLike, *, s_hint: float | None = None, window: float | None = None):
         """Distance of the pose ``T`` (4×4) from the path: ``(position [m], orientation [rad], s)``
         at the nearest point s of the path in the pose metric of `closest` (searched near
-        ``s_hint`` when given); the orientation error is the angle between R and R(s)."""
-        T = np.asarray(T, dtype=float)
-        if T.shape != (4, 4):
-            raise InputError(f"T must be a pose (4, 4), got shape {T.shape}", argument="T", value=T)
+        ``s_hint`` when given); the orientation error is the angle between R and R(s).
+        ``T`` must be a rigid transform (`InputError` otherwise, NaN included)."""
+        T = _pose(T, "T")
         s, e2, a2 = self._nearest(T, s_hint, window)
         return math.sqrt(e2), math.sqrt(a2), s
 

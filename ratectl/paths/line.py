@@ -37,10 +37,12 @@ class Line(Path):
         self.T_start = _pose(T_start, "T_start")
         self.T_end = _pose(T_end, "T_end")
         self.p0 = self.T_start[:3, 3]
-        self.dp = self.T_end[:3, 3] - self.p0
+        with np.errstate(over="ignore", invalid="ignore"):  # too far apart: refused by _setup
+            self.dp = self.T_end[:3, 3] - self.p0
+            dist = math.hypot(*self.dp.tolist())
         self.rot = _Geodesic(self.T_start[:3, :3], so3_log(self.T_start[:3, :3].T @ self.T_end[:3, :3]))
         rho = positive_number("rotation_length", rotation_length)
-        L = math.hypot(float(np.linalg.norm(self.dp)), rho * self.rot.angle)
+        L = math.hypot(dist, rho * self.rot.angle)
         self._setup(L, speed=speed, acceleration=acceleration, jerk=jerk, law=law,
                     rotation_length=rotation_length)
 

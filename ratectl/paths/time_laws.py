@@ -7,6 +7,7 @@ import math
 
 from ..checks import positive_number
 from ..errors import InputError
+from ..model.jerk_profile import PiecewiseJerk
 
 __all__ = ['TimeLaw', 'Trapezoidal', 'JerkLimited', 'Quintic', 'make_time_law', 'LAWS']
 
@@ -105,7 +106,10 @@ class Quintic(TimeLaw):
 class JerkLimited(TimeLaw):
     """Jerk-limited trapezoid: the time-optimal rest-to-rest motion over ``length`` with
     |ṡ| ≤ speed, |s̈| ≤ acceleration, |s⃛| ≤ jerk (a 1-D state-to-state Ruckig trajectory,
-    computed once)."""
+    computed once).
+
+    The law keeps only the numbers of Ruckig's profile (`ratectl.model.jerk_profile`):
+    no Ruckig object outlives the constructor."""
 
     name = "jerk-limited"
 
@@ -118,7 +122,7 @@ class JerkLimited(TimeLaw):
         self.jerk = self.max_jerk = j
         if self.length <= 0.0:
             self.duration = 0.0
-            self._traj = None
+            self._profile: PiecewiseJerk | None = None
             return
         inp = ruckig.InputParameter(1)
         inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [0.0], [0.0]
@@ -129,12 +133,13 @@ class JerkLimited(TimeLaw):
         if res not in (ruckig.Result.Working, ruckig.Result.Finished):  # pragma: no cover
             raise InputError(f"cannot build a jerk-limited time law: Ruckig returned {res}",
                              argument="jerk", value=jerk)
-        self._traj = traj
-        self.duration = float(traj.duration)
+        self._profile = PiecewiseJerk(traj)  # nothing of Ruckig is kept
+        self.duration = self._profile.duration
 
     def _eval(self, t):
-        p, v, a = self._traj.at_time(t)[:3]
-        return float(p[0]), float(v[0]), float(a[0])
+        assert self._profile is not None  # (length 0 never reaches here: duration 0)
+        p, v, a = self._profile.at(t)
+        return p[0], v[0], a[0]
 
 
 def make_time_law(law: str, length: float, *, speed: float, acceleration: float,

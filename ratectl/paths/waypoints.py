@@ -8,6 +8,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..checks import positive_number
 from ..errors import InputError
 from ..spatial import so3_exp, so3_left_jacobian
 from .base import Path
@@ -79,14 +80,17 @@ class Waypoints(Path):
 
     def __init__(self, poses: ArrayLike, *, blend: float = 0.02, speed: float, acceleration: float,
                  jerk: float | None = None, law: str | None = None, rotation_length: float = 0.1) -> None:
-        P = np.asarray(poses, dtype=float)
+        try:
+            if isinstance(poses, str | bytes) or np.iscomplexobj(poses):
+                raise TypeError("poses")
+            P = np.asarray(poses, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raise InputError(f"poses must be an (N, 4, 4) array of rigid transforms with N ≥ 2, got "
+                             f"{poses!r}"[:300], argument="poses", value=poses) from None
         if P.ndim != 3 or P.shape[1:] != (4, 4) or P.shape[0] < 2:
             raise InputError(f"poses must be an (N, 4, 4) array with N ≥ 2, got shape {P.shape}",
                              argument="poses", value=poses)
-        blend = float(blend)
-        if not (blend >= 0.0 and math.isfinite(blend)):
-            raise InputError(f"blend must be a non-negative length [m], got {blend!r}",
-                             argument="blend", value=blend)
+        blend = positive_number("blend", blend, allow_zero=True, unit="[m]")
         self.poses = np.array([_pose(T, f"poses[{i}]") for i, T in enumerate(P)])
         self.segments = []
         for i in range(len(P) - 1):
@@ -120,6 +124,38 @@ class Waypoints(Path):
         """101 samples over the path, and 9 on every segment (its knots included)."""
         per = [np.linspace(a, b, 9) for a, b in zip(self.knots[:-1], self.knots[1:], strict=True)]
         return np.unique(np.concatenate([super()._search_grid(), *per]))
+
+    def _global_nearest(self, x: np.ndarray, Rx: np.ndarray | None) -> tuple[float, float, float]:
+        """The global nearest point piece by piece: on each straight part of a segment (between
+        its blends) the segment's closed-form estimate refined within that part, on each
+        blend a descent from its middle and both ends within the blend; the best of them
+        (the first one on a tie). Each piece is smooth, so no descent crosses a corner."""
+        best: tuple[float, float, float] | None = None
+        fbest = math.inf
+        r2 = self.rotation_length ** 2
+        nseg = len(self.segments)
+        for i, g in enumerate(self.segments):
+            a = float(self.knots[i] + self.blends[i])
+            b = float(self.knots[i + 1] - self.blends[i + 1])
+            if b >= a:
+                s0, _ = g._start_estimate(x, Rx)
+                s0 = min(max(float(self.knots[i]) + s0, a), b)
+                cands = [self._descend(s0, x, Rx, a, b, max(0.1 * (b - a), 1e-9))]
+                if i + 1 < nseg and self.blends[i + 1] == 0.0:  # a sharp corner: its incoming side
+                    cands.append(self._descend(b, x, Rx, a, b, max(0.1 * (b - a), 1e-9)))
+            else:  # pragma: no cover - blends are at most half of each segment
+                cands = []
+            k = i + 1
+            if 1 <= k < nseg and self.blends[k] > 0.0:
+                lo, hi = float(self.knots[k] - self.blends[k]), float(self.knots[k] + self.blends[k])
+                step = max(0.5 * (hi - lo), 1e-9)
+                cands += [self._descend(s, x, Rx, lo, hi, step) for s in (lo, 0.5 * (lo + hi), hi)]
+            for c in cands:
+                f = c[1] + r2 * c[2]
+                if f < fbest:
+                    fbest, best = f, c
+        assert best is not None
+        return best
 
     def _line(self, i: int, s: float):
         """Segment i extended beyond its ends: (p, R, dp/ds, ω/ṡ) at global s."""

@@ -6,8 +6,6 @@
 * `governor` — `Governor`, the jerk-limited progress plan.
 """
 
-from __future__ import annotations
-
 from .governor import Governor, GovernorPlan, plan
 from .ik import IKResult, ik
 from .joint_path import JointPath, joint_path

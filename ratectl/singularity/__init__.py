@@ -46,8 +46,6 @@ last two labels. Whether the configuration is exactly singular is the rank test
 σ_i(J_L) ≤ rtol·σ₁(J_L).
 """
 
-from __future__ import annotations
-
 from .analysis import SingularityReport, analyze, classify
 from .gradient import manipulability_gradient
 from .maps import WorkspaceMap, plot_workspace_map, workspace_map

@@ -30,6 +30,7 @@ from .measures import (
     _cond,
     _fast_singular_values,
     _ro,
+    check_chain,
 )
 from .structure import ArmStructure, _geometry, _lines, structure
 
@@ -156,12 +157,14 @@ def classify(chain: Chain, q: ArrayLike | None = None, *, J: ArrayLike | None = 
 class SingularityReport:
     """Singularity analysis of one configuration (see `analyze`).
 
-    Measures: ``sigma`` (raw singular values of J, mixed units), ``sigma_scaled``
-    (of J_L = diag(I/L, I)·J, dimensionless), ``sigma_min``/``sigma_min_scaled``,
-    ``manipulability`` (√det(J Jᵀ), n ≥ 6; √det(Jᵀ J), n < 6) and its scaled version,
+    Measures, named by one rule: a name without suffix is of J as given (mixed units, the
+    same σ_min every `Command` and `Execution` carries), the suffix ``_scaled`` means of
+    J_L = diag(I/L, I)·J (dimensionless, L = ``length``): ``sigma``/``sigma_scaled`` (the
+    singular values), ``sigma_min``/``sigma_min_scaled``, ``manipulability``/
+    ``manipulability_scaled`` (√det(J Jᵀ), n ≥ 6; √det(Jᵀ J), n < 6),
     ``condition``/``condition_scaled`` (σ₁/σ_m, inf at a singularity) and
-    ``inverse_condition`` (σ_m/σ₁ of J_L), translational (J_v, m/rad) and rotational
-    (J_ω, rad/rad) sub-measures.
+    ``inverse_condition``/``inverse_condition_scaled`` (σ_m/σ₁ = 1/condition, 0 at a
+    singularity); translational (J_v, m/rad) and rotational (J_ω, rad/rad) sub-measures.
 
     Classification: ``kind`` ∈ `KINDS`, ``singular`` (rank < min(6, n)),
     ``near_singular`` (σ_min(J_L) < ``near``), ``causes`` (every named kind whose factor
@@ -198,6 +201,7 @@ class SingularityReport:
     condition: float
     condition_scaled: float
     inverse_condition: float
+    inverse_condition_scaled: float
     sigma_translational: np.ndarray
     sigma_rotational: np.ndarray
     manipulability_translational: float
@@ -221,15 +225,20 @@ class SingularityReport:
     near: float = DEFAULT_NEAR
 
     def __str__(self) -> str:
-        return (f"{self.kind} (rank {self.rank}/{self.max_rank}, σ_min(J_L) = {self.sigma_min_scaled:.3g}, "
-                f"≈{self.joint_distance:.3g} rad from singular): {self.reason}")
+        label = self.kind
+        if self.kind == "rank-deficient" and not self.singular:
+            label = "near rank-deficient"
+        return (f"{label} (rank {self.rank}/{self.max_rank}, σ_min(J) = {self.sigma_min:.3g}, "
+                f"σ_min(J_L) = {self.sigma_min_scaled:.3g}, estimated {self.joint_distance:.3g} rad from "
+                f"singular to first order): {self.reason}")
 
 
-def _joint_phrase(idx) -> str:
-    idx = [i + 1 for i in idx]
+def _joint_phrase(idx, names) -> str:
+    """"joint 'a'" or "joints 'a', 'b' and 'c'": joints are named by the chain's joint names."""
+    idx = [repr(names[i]) for i in idx]
     if len(idx) == 1:
         return f"joint {idx[0]}"
-    return "joints " + ", ".join(str(i) for i in idx[:-1]) + f" and {idx[-1]}"
+    return "joints " + ", ".join(idx[:-1]) + f" and {idx[-1]}"
 
 
 def _direction_phrase(u: np.ndarray) -> str:
@@ -248,7 +257,7 @@ def _direction_phrase(u: np.ndarray) -> str:
     return f"translation along {vec(lin)} combined with rotation about {vec(ang)}"
 
 
-def _reason(kind, report_bits, J, geo, st: ArmStructure, L) -> str:
+def _reason(kind, report_bits, J, geo, st: ArmStructure, L, names) -> str:
     z, c = _lines(J)
     n = st.dof
     pre = "singular" if report_bits["singular"] else (
@@ -261,8 +270,9 @@ def _reason(kind, report_bits, J, geo, st: ArmStructure, L) -> str:
             txt += ("; note: the translational part J_v has lost rank — the tool point cannot "
                     f"translate in one direction (σ_min(J_v) = {report_bits['trans_smin']:.3g} m/rad)")
         if n < 6:
+            k = 6 - report_bits['rank']
             txt += (f"; with {n} joints the arm spans at most {n} of the 6 task directions "
-                    f"({6 - report_bits['rank']} are unreachable at this q)")
+                    f"({k} {'is' if k == 1 else 'are'} unreachable at this q)")
         return txt
     if kind == _WRIST:
         assert st.wrist is not None  # the wrist kind is only given to arms with a spherical wrist
@@ -275,27 +285,27 @@ def _reason(kind, report_bits, J, geo, st: ArmStructure, L) -> str:
         how = "aligned (collinear)" if gap < 1e-6 * L else f"parallel ({gap:.4g} m apart)"
         ang = math.degrees(math.asin(min(1.0, min(sines))))
         off = "" if ang < 1e-6 else f", {ang:.3g}° from it"
-        return f"{pre} wrist: axes of joints {p + 1} and {r + 1} are {how}{off}; lost: {lost}"
+        return f"{pre} wrist: the axes of {_joint_phrase((p, r), names)} are {how}{off}; lost: {lost}"
     if kind == _ELBOW:
         assert st.elbow is not None  # the elbow kind is only given to arms with an elbow pair
         a, b = st.elbow
         state = "stretched" if geo["elbow_stretched"] else "folded"
         ang = math.degrees(math.asin(min(1.0, float(geo["elbow"]))))
         where = "the outer" if state == "stretched" else "an inner"
-        pt = (f"the point where the axis of joint {st.elbow_point[0] + 1} meets the axis of joint "
-              f"{st.elbow_point[1] + 1}" if st.elbow_point else "the wrist point")
+        pt = (f"the point where the axis of joint {names[st.elbow_point[0]]!r} meets the axis of joint "
+              f"{names[st.elbow_point[1]]!r}" if st.elbow_point else "the wrist point")
         off = "" if ang < 1e-6 else f", {ang:.3g}° from it"
-        return (f"{pre} elbow: the axes of joints {a + 1} and {b + 1} and {pt} lie in one plane — "
+        return (f"{pre} elbow: the axes of {_joint_phrase((a, b), names)} and {pt} lie in one plane — "
                 f"upper arm and forearm are aligned ({state}{off}; the wrist is on {where} boundary "
                 f"of its reach); lost: {lost}")
     if kind == _SHOULDER:
         offset = abs(float(geo["shoulder_offset"]))
         dist = "in" if offset < 1e-9 else f"{offset * 1e3:.3g} mm from"
         return (f"{pre} shoulder: the wrist point lies {dist} the plane through the "
-                f"axis of joint 1 parallel to the axis of joint 2 (the wrist is over the shoulder); "
-                f"joint 1 cannot move it sideways; lost: {lost}")
+                f"axis of joint {names[0]!r} parallel to the axis of joint {names[1]!r} (the wrist is "
+                f"over the shoulder); joint {names[0]!r} cannot move it sideways; lost: {lost}")
     if kind == _BOUNDARY:
-        arm = _joint_phrase(st.arm_joints)
+        arm = _joint_phrase(st.arm_joints, names)
         return (f"{pre} workspace boundary: {arm} cannot move the "
                 f"{'wrist point' if st.wrist_point else 'tool point'} in one direction "
                 f"(σ_min of their linear block / L = {float(geo['arm_sigma_min']):.3g}); lost: {lost}")
@@ -311,9 +321,14 @@ def _reason(kind, report_bits, J, geo, st: ArmStructure, L) -> str:
                 d = c[k] - c[i]
                 gap = float(np.linalg.norm(d - z[i] * np.dot(z[i], d)))
                 if gap < 1e-3 * L:
-                    extra.append(f"axes of joints {i + 1} and {k + 1} are aligned")
-    txt = (f"{pre} (rank {report_bits['rank']} of {min(6, n)}): {_joint_phrase(part)} move the tool "
-           f"in dependent ways; lost: {lost}")
+                    extra.append(f"the axes of {_joint_phrase((i, k), names)} are aligned")
+    if report_bits["singular"]:
+        txt = (f"singular (rank {report_bits['rank']} of {min(6, n)}): {_joint_phrase(part, names)} "
+               f"move the tool in dependent ways; lost: {lost}")
+    else:  # full rank, close to losing it, with no named cause
+        txt = (f"near-singular (full rank {report_bits['rank']}, σ_min(J_L) = {report_bits['smin']:.3g} < "
+               f"{report_bits['near_thr']:.3g}): {_joint_phrase(part, names)} move the tool in nearly "
+               f"dependent ways; weakest: {lost}")
     if extra:
         txt += "; " + "; ".join(extra)
     return txt
@@ -353,6 +368,7 @@ def analyze(chain: Chain, q: ArrayLike, *, length: float | None = None, rtol: fl
     Returns:
         A frozen `SingularityReport`.
     """
+    check_chain(chain)
     a = chain.check_q(q)
     if a.ndim != 1:
         raise InputError(f"analyze takes one configuration of shape ({chain.dof},); "
@@ -382,7 +398,7 @@ def analyze(chain: Chain, q: ArrayLike, *, length: float | None = None, rtol: fl
     sv = core["sigma_translational"][0]
     bits = dict(singular=singular, near=bool(smin < near), smin=smin, near_thr=near, rank=rk,
                 u_min=u_min, v_min=v_min, trans_rank_lost=bool(sv[-1] < near * L), trans_smin=float(sv[-1]))
-    reason = _reason(kind, bits, J, geo, st, L)
+    reason = _reason(kind, bits, J, geo, st, L, chain.joint_names)
     if kind == _BOUNDARY and not bits["near"]:      # set by _translation_lost (n < 6)
         pre = "singular" if bits["trans_smin"] <= 1e-9 * L else "near-singular"
         reason = (f"{pre} workspace boundary: the tool point cannot translate in one direction "
@@ -405,7 +421,8 @@ def analyze(chain: Chain, q: ArrayLike, *, length: float | None = None, rtol: fl
         manipulability=float(core["manipulability"][0]),
         manipulability_scaled=float(core["manipulability_scaled"][0]),
         condition=float(core["condition"][0]), condition_scaled=float(core["condition_scaled"][0]),
-        inverse_condition=float(_cond(core["sigma_scaled"][0, 0], core["sigma_min_scaled"][0], True)),
+        inverse_condition=float(_cond(sr[0], sr[-1], True)),
+        inverse_condition_scaled=float(_cond(core["sigma_scaled"][0, 0], core["sigma_min_scaled"][0], True)),
         sigma_translational=_ro(core["sigma_translational"][0]),
         sigma_rotational=_ro(core["sigma_rotational"][0]),
         manipulability_translational=float(core["manipulability_translational"][0]),

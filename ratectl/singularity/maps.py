@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
-from .measures import _BOUNDARY, _ELBOW, _RANKDEF, _SHOULDER, _WRIST, KINDS, _ro
+from .measures import _BOUNDARY, _ELBOW, _RANKDEF, _SHOULDER, _WRIST, KINDS, _ro, check_chain
 from .scan import scan
 
 if TYPE_CHECKING:
@@ -18,11 +18,37 @@ if TYPE_CHECKING:
 
     from ..model.chain import Chain
 
-__all__ = ['workspace_map', 'WorkspaceMap', 'plot_workspace_map']
+__all__ = ['workspace_map', 'WorkspaceMap', 'plot_workspace_map', 'joint_pair']
+
+
+def joint_pair(chain: Chain, joints: Any) -> tuple[int, int]:
+    """Two different joints of ``chain`` as 0-based indices, from indices (0-based) or the
+    chain's joint names; `InputError` naming what is allowed otherwise."""
+    names = list(chain.joint_names)
+    n = chain.dof
+    out = []
+    try:
+        if isinstance(joints, str | bytes) or len(joints) != 2:
+            raise TypeError("joints")
+        for v in joints:
+            if isinstance(v, str):
+                out.append(names.index(v))
+            elif isinstance(v, bool) or not isinstance(v, int | np.integer) or not 0 <= v < n:
+                raise ValueError(v)
+            else:
+                out.append(int(v))
+    except (TypeError, ValueError):
+        raise InputError(f"joints must be two different joints of {chain.name}, as 0-based indices in "
+                         f"0..{n - 1} or joint names {names}; got {joints!r}", argument="joints",
+                         value=joints) from None
+    if out[0] == out[1]:
+        raise InputError(f"joints must be two different joints, got {joints!r} (both {names[out[0]]!r})",
+                         argument="joints", value=joints)
+    return out[0], out[1]
 
 
 # ====================================================================== workspace maps
-_MEASURES = ("manipulability", "manipulability_scaled", "sigma_min_scaled", "inverse_condition")
+_MEASURES = ("manipulability", "manipulability_scaled", "sigma_min_scaled", "inverse_condition_scaled")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -52,9 +78,11 @@ def workspace_map(chain: Chain, *, joints: tuple[int, int] | None = None, plane:
 
     Exactly one of:
 
-    * ``joints=(i, j)`` (0-based): a ``resolution × resolution`` grid of q_i, q_j over
-      ``ranges = ((lo_i, hi_i), (lo_j, hi_j))`` (default the joint limits clipped to ±π),
-      other joints at ``q`` (default zeros, clipped into the limits);
+    * ``joints=(i, j)`` (0-based indices, or the chain's joint names): a
+      ``resolution × resolution`` grid of q_i, q_j over
+      ``ranges = ((lo_i, hi_i), (lo_j, hi_j))`` (default the joints' own limits, the whole
+      range however wide; ±π for a joint without limits), other joints at ``q`` (default
+      zeros, clipped into the limits); the axes are labelled with the joint names;
     * ``plane="xz"`` (or ``"xy"``, ``"yz"``; world axes): random configurations
       (``samples``, uniform in the limits) whose tool origin lies within ``slab/2`` m of
       the plane (third coordinate = ``offset`` [m]) are binned into a grid over
@@ -63,10 +91,11 @@ def workspace_map(chain: Chain, *, joints: tuple[int, int] | None = None, plane:
 
     Args:
         measure: one of "manipulability" (raw w), "manipulability_scaled",
-            "sigma_min_scaled", "inverse_condition".
+            "sigma_min_scaled", "inverse_condition_scaled".
         length: characteristic length L [m] for the scaled measures.
         rng: seed or Generator for plane mode.
     """
+    check_chain(chain)
     if (joints is None) == (plane is None):
         raise InputError("give exactly one of joints=(i, j) or plane='xz'/'xy'/'yz'",
                          argument="joints", value=(joints, plane))
@@ -88,17 +117,10 @@ def workspace_map(chain: Chain, *, joints: tuple[int, int] | None = None, plane:
     lo = np.where(np.isfinite(chain.lower), chain.lower, -np.pi)
     hi = np.where(np.isfinite(chain.upper), chain.upper, np.pi)
     if joints is not None:
-        try:
-            i, j = (int(v) for v in joints)
-        except (TypeError, ValueError):
-            raise InputError(f"joints must be a pair of joint indices, got {joints!r}",
-                             argument="joints", value=joints) from None
-        if not (0 <= i < n and 0 <= j < n and i != j):
-            raise InputError(f"joints must be two different indices in 0..{n - 1}, got {joints!r}",
-                             argument="joints", value=joints)
+        i, j = joint_pair(chain, joints)
         base = np.clip(np.zeros(n), lo, hi) if q is None else chain.check_q(q).copy()
         if ranges is None:
-            ranges = ((max(lo[i], -np.pi), min(hi[i], np.pi)), (max(lo[j], -np.pi), min(hi[j], np.pi)))
+            ranges = ((lo[i], hi[i]), (lo[j], hi[j]))
         x = np.linspace(float(ranges[0][0]), float(ranges[0][1]), resolution)
         y = np.linspace(float(ranges[1][0]), float(ranges[1][1]), resolution)
         Q = np.broadcast_to(base, (resolution, resolution, n)).copy()
@@ -107,10 +129,11 @@ def workspace_map(chain: Chain, *, joints: tuple[int, int] | None = None, plane:
         res = scan(chain, Q, length=length)
         vals = getattr(res, measure)
         names = chain.joint_names
+        unit = ["m" if chain.prismatic[k] else "rad" for k in (i, j)]
         return WorkspaceMap(mode="joints", x=_ro(x), y=_ro(y), values=_ro(np.array(vals)),
-                            measure=measure, xlabel=f"q{i + 1} ({names[i]}) [rad]",
-                            ylabel=f"q{j + 1} ({names[j]}) [rad]",
-                            title=f"{chain.name}: {measure} over q{i + 1}, q{j + 1}",
+                            measure=measure, xlabel=f"{names[i]} [{unit[0]}]",
+                            ylabel=f"{names[j]} [{unit[1]}]",
+                            title=f"{chain.name}: {measure} over {names[i]}, {names[j]}",
                             kind_code=res.kind_code)
     axes = {"xy": (0, 1, 2), "xz": (0, 2, 1), "yz": (1, 2, 0)}
     if plane not in axes:

@@ -7,6 +7,7 @@ characteristic length L [m] so that linear and angular rows are comparable.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -79,25 +80,55 @@ def _scaled(J: np.ndarray, length) -> np.ndarray:
     return out
 
 
-def singular_values(J: ArrayLike, *, length: float | None = None) -> np.ndarray:
+def check_chain(chain: Any) -> None:
+    """`InputError` unless ``chain`` is a `ratectl.Chain`."""
+    from ..model.chain import Chain
+
+    if not isinstance(chain, Chain):
+        raise InputError(f"chain must be a ratectl.Chain (e.g. rc.robots.ur5e()), got {chain!r}"[:200],
+                         argument="chain", value=chain)
+
+
+def _jacobian_of(J: Any, q: Any) -> np.ndarray:
+    """The Jacobian of a measure's first arguments: ``J`` itself, or ``chain.jacobian(q)``
+    when the first argument is a `Chain` (then ``q`` is required)."""
+    from ..model.chain import Chain
+
+    if isinstance(J, Chain):
+        if q is None:
+            raise InputError(f"give the joint positions with the chain: f({J.name}, q) (q of shape "
+                             f"(..., {J.dof})), or the Jacobian alone: f(J)", argument="q", value=None)
+        return J.jacobian(q)
+    if q is not None:
+        raise InputError("q is given with a Jacobian; pass either a Jacobian J (..., 6, n) or a chain "
+                         "and q: f(chain, q)", argument="q", value=q)
+    return _as_jacobian(J)
+
+
+def singular_values(J: Any, q: ArrayLike | None = None, *, length: float | None = None) -> np.ndarray:
     """Singular values σ₁ ≥ … ≥ σ_m of J, (..., m) with m = min(rows, n).
 
     Args:
-        J: Jacobian (..., 6, n) (or any (..., r, n) matrix when ``length`` is None).
+        J: Jacobian (..., 6, n) (or any (..., r, n) matrix when ``length`` is None), or a
+            `Chain`, with ``q``: ``singular_values(chain, q)`` is
+            ``singular_values(chain.jacobian(q))``.
+        q: joint positions (..., n) when ``J`` is a chain.
         length: if given, the characteristic length L [m]: the singular values of
             J_L = diag(I/L, I)·J (dimensionless) are returned.
     """
-    return np.linalg.svd(_scaled(_as_jacobian(J), length), compute_uv=False)
+    return np.linalg.svd(_scaled(_jacobian_of(J, q), length), compute_uv=False)
 
 
-def manipulability(J: ArrayLike, *, length: float | None = None) -> np.ndarray:
+def manipulability(J: Any, q: ArrayLike | None = None, *, length: float | None = None) -> np.ndarray:
     """Yoshikawa manipulability w = σ₁⋯σ_m, (...,).
 
     w = √det(J Jᵀ) when J has at least as many columns as rows (n ≥ 6), and
     √det(Jᵀ J) otherwise (for n < 6, √det(J Jᵀ) is identically 0). Units: product of
     the singular values' units (m³/rad⁶ · … for the raw 6×n J); dimensionless for J_L.
+    ``J`` is a Jacobian (..., 6, n), or a `Chain` with joint positions ``q`` (as for
+    `singular_values`).
     """
-    A = _scaled(_as_jacobian(J), length)
+    A = _scaled(_jacobian_of(J, q), length)
     G = A @ np.swapaxes(A, -1, -2) if A.shape[-1] >= A.shape[-2] else np.swapaxes(A, -1, -2) @ A
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         w = np.sqrt(np.maximum(np.linalg.det(G), 0.0))
@@ -114,16 +145,18 @@ def manipulability(J: ArrayLike, *, length: float | None = None) -> np.ndarray:
     return w
 
 
-def condition_number(J: ArrayLike, *, length: float | None = None, inverse: bool = False) -> np.ndarray:
+def condition_number(J: Any, q: ArrayLike | None = None, *, length: float | None = None,
+                     inverse: bool = False) -> np.ndarray:
     """Condition number κ = σ₁/σ_m (inf where σ_m = 0), or its inverse σ_m/σ₁ ∈ [0, 1].
 
     Args:
-        J: Jacobian (..., 6, n) or any (..., r, n).
+        J: Jacobian (..., 6, n) or any (..., r, n), or a `Chain` with ``q``.
+        q: joint positions (..., n) when ``J`` is a chain.
         length: characteristic length L [m] for the unit-consistent κ(J_L). The raw κ(J)
             mixes m/rad and rad/rad and changes with the choice of units.
         inverse: return 1/κ (0 at a singularity, well-behaved for plotting).
     """
-    s = singular_values(J, length=length)
+    s = singular_values(J, q, length=length)
     return _cond(s[..., 0], s[..., -1], inverse)
 
 

@@ -22,6 +22,7 @@ from .measures import (
     _cond,
     _ro,
     _scaled,
+    check_chain,
 )
 
 if TYPE_CHECKING:
@@ -47,7 +48,7 @@ class ScanResult:
     manipulability: np.ndarray
     manipulability_scaled: np.ndarray
     condition_scaled: np.ndarray
-    inverse_condition: np.ndarray
+    inverse_condition_scaled: np.ndarray
     rank: np.ndarray
     singular: np.ndarray
     near_singular: np.ndarray
@@ -95,6 +96,7 @@ def scan(chain: Chain, qs: ArrayLike, *, length: float | None = None, rtol: floa
         A frozen `ScanResult`; entry ``[i]`` equals the corresponding field of
         ``analyze(chain, qs[i], ...)``.
     """
+    check_chain(chain)
     a = chain.check_q(qs, name="qs")
     L = _check_options(chain, length, rtol, near, factor_tol)
     batch = a.shape[:-1]
@@ -117,7 +119,7 @@ def scan(chain: Chain, qs: ArrayLike, *, length: float | None = None, rtol: floa
         manipulability=cat(lambda p: p["manipulability"]),
         manipulability_scaled=cat(lambda p: p["manipulability_scaled"]),
         condition_scaled=cat(lambda p: p["condition_scaled"]),
-        inverse_condition=_ro(_cond(s[..., 0], smin, True)),
+        inverse_condition_scaled=_ro(_cond(s[..., 0], smin, True)),
         rank=rk, singular=_ro(rk < m), near_singular=_ro(smin < near),
         kind_code=cat(lambda p: p["kind_code"]),
         manipulability_translational=cat(lambda p: p["manipulability_translational"]),
@@ -141,7 +143,7 @@ class PathDistance:
             with m for prismatic joints].
         sigma_min_scaled: σ_min(J_L), the spectral-norm distance of J_L to the nearest
             rank-deficient matrix (Eckart–Young).
-        inverse_condition: σ_min/σ_max of J_L.
+        inverse_condition_scaled: σ_min/σ_max of J_L.
         manipulability: Yoshikawa w of the raw J.
         joint_distance: σ_min(J_L)/‖∇_q σ_min(J_L)‖, a first-order estimate of the
             joint-space distance to the singular set [rad].
@@ -151,7 +153,7 @@ class PathDistance:
 
     s: np.ndarray
     sigma_min_scaled: np.ndarray
-    inverse_condition: np.ndarray
+    inverse_condition_scaled: np.ndarray
     manipulability: np.ndarray
     joint_distance: np.ndarray
     kind_code: np.ndarray
@@ -170,6 +172,7 @@ def path_distance(chain: Chain, qs: ArrayLike, *, length: float | None = None, n
     (σ_min / ‖∂σ_min/∂q‖, with ∂σ_min/∂q_k = u_minᵀ H_k v_min from the kinematic
     Hessian) and the kind at each configuration.
     """
+    check_chain(chain)
     a = chain.check_q(qs, name="qs")
     if a.ndim != 2:
         raise InputError(f"qs must be a path of shape (N, {chain.dof}), got {a.shape}",
@@ -188,7 +191,7 @@ def path_distance(chain: Chain, qs: ArrayLike, *, length: float | None = None, n
     ds = np.linalg.norm(np.diff(a, axis=0), axis=-1)
     return PathDistance(
         s=_ro(np.concatenate([[0.0], np.cumsum(ds)])), sigma_min_scaled=_ro(smin),
-        inverse_condition=_ro(_cond(sv[..., 0], smin, True)),
+        inverse_condition_scaled=_ro(_cond(sv[..., 0], smin, True)),
         manipulability=_ro(core["manipulability"]), joint_distance=_ro(jd),
         kind_code=_ro(core["kind_code"]), closest=int(np.argmin(smin)))
 

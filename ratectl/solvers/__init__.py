@@ -30,8 +30,6 @@ and joint weights (``joint_weights=``: a (n,) vector) are constructor options of
 solver: they solve min ‖J q̇ − ξ‖²_Wx + λ² q̇ᵀ W_q q̇ (rows of weight 0 are dropped).
 """
 
-from __future__ import annotations
-
 from ..model.limits import Limits
 from .base import ORIENTATION_ONLY, POSITION_ONLY, VELOCITY_POLICIES, Solver, SolveResult
 from .damped import DLS, SDLS, AdaptiveDLS, adaptive_damping

@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike
 from scipy.linalg import lapack as _lapack
 
 from ..checks import positive_number as _positive  # noqa: F401  (the solvers import it from here)
+from ..checks import real_array as _real_array
 from ..errors import InputError, RatectlError, SolverError
 from ..model.limits import Limits
 
@@ -324,17 +325,6 @@ def _checked_entries(J: np.ndarray, xi: np.ndarray) -> list[float]:
 _MAX_ENTRY = 1e145
 
 
-def _real_array(name, value, what):
-    """``value`` as a float64 array; complex numbers and non-numbers are refused."""
-    try:
-        if np.iscomplexobj(value):
-            raise TypeError("complex")
-        return np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise InputError(f"{name} must be {what} of real numbers, got {value!r}"[:300], argument=name,
-                         value=value) from None
-
-
 def _check_finite(J, xi):
     if not np.all(np.isfinite(J)):
         raise InputError("J must be finite (got NaN or inf)", argument="J", value=J)
@@ -354,7 +344,7 @@ def _weights(task_weights, joint_weights):
                                  f"vector of non-negative weights, got {task_weights!r}",
                                  argument="task_weights", value=task_weights)
             task_weights = table[task_weights]
-        w = np.asarray(task_weights, dtype=float)
+        w = _real_array("task_weights", task_weights, "a vector of non-negative weights")
         if w.ndim != 1 or not np.all(np.isfinite(w)) or np.any(w < 0) or not np.any(w > 0):
             raise InputError("task_weights must be a vector of finite non-negative weights, one per "
                              f"task row, not all zero; got {task_weights!r}",
@@ -363,7 +353,7 @@ def _weights(task_weights, joint_weights):
         sw = np.sqrt(w[rows])
         rows = (rows, w.shape[0])
     if joint_weights is not None:
-        w = np.asarray(joint_weights, dtype=float)
+        w = _real_array("joint_weights", joint_weights, "a vector of positive weights")
         if w.ndim != 1 or not np.all(np.isfinite(w)) or np.any(w <= 0):
             raise InputError("joint_weights must be a vector of finite positive weights, one per "
                              f"joint; got {joint_weights!r}", argument="joint_weights",

@@ -9,7 +9,6 @@ Each gives its rows ``A q̇ ≈ b`` at a configuration (`Task.rows`, `TaskRows`)
 `ratectl.solvers.priority` solves levels of them with strict priorities under the limits.
 """
 
-from __future__ import annotations
 
 from .base import FrameTask, Task, TaskRows
 from .objective import JointCentring, Manipulability, Objective

@@ -12,14 +12,13 @@ viser (the ``view`` extra: ``pip install -e ".[view]"``) is imported here only; 
 ratectl`` never loads it.
 """
 
-from __future__ import annotations
 
-from ..errors import RatectlError
+from .. import errors as _errors
 
 try:
     import viser as _viser  # noqa: F401  (the check that the extra is installed)
 except ImportError as exc:  # pragma: no cover - depends on the environment
-    raise RatectlError(
+    raise _errors.RatectlError(
         "ratectl.viewer needs viser (and trimesh, which comes with it): pip install -e \".[view]\" in "
         f"ratectl's source tree, or pip install 'viser>=1.0' (import failed: {exc})") from exc
 

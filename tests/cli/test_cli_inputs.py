@@ -94,7 +94,7 @@ def test_values_before_an_option_and_arm_after_q():
 def test_out_of_limit_values_are_warned_naming_the_joint():
     code, out, err = run(["singularity", "ur5e", "--q", "0", "0", "4", "0", "0", "0.3"])
     assert code == 0
-    assert "warning" in err and "q3 (elbow) = 4 rad is outside its limits [-3.142, 3.142]" in err
+    assert "warning" in err and "joint 'elbow' = 4 rad is outside its limits [-3.142, 3.142]" in err
     assert err.count("warning") == 1
     code, out, err = run(["jacobian", "rpr", "--q", "0", "0.9", "0"])       # prismatic: metres
     assert code == 0 and "q2" in err and " m is outside" in err
@@ -111,7 +111,10 @@ def test_out_of_limit_values_are_warned_naming_the_joint():
     (["scan", "ur5e", "--samples", "-3"], ["--samples"]),
     (["scan", "ur5e", "--resolution", "100000", "--plot", "m.png"], ["--resolution", "2 to 1001", "100000"]),
     (["scan", "ur5e", "--resolution", "1"], ["--resolution"]),
-    (["scan", "ur5e", "--joints", "0", "2"], ["--joints"]),
+    (["scan", "ur5e", "--joints", "1", "1"], ["--joints", "two different"]),
+    (["scan", "ur5e", "--joints", "0", "6"], ["--joints", "0..5"]),
+    (["scan", "ur5e", "--joints", "wrist_9", "0"], ["--joints", "joint names"]),
+    (["scan", "ur5e", "--range", "0", "1", "2", "x"], ["'x'"]),
     (["demo", "--dt", "1e-7"], ["--dt", "between", "1e-07"]),
     (["demo", "--dt", "1"], ["--dt", "between"]),
     (["demo", "--dt", "nan"], ["--dt", "'nan'"]),

@@ -6,9 +6,10 @@ limits held to 1e-6 relative, QP answers equal to an exact reference, hostile fi
 refused quickly without reading outside files.
 
 Budget: the default run is bounded (the whole directory in ~15 s on two cores);
-``pytest tests/fuzz --soak`` multiplies the examples by ``SOAK_FACTOR`` and draws fresh
-random examples (``RATECTL_SOAK_FACTOR`` overrides the factor). The number of library
-calls made and the failures seen are printed at the end of the run (``fuzz: ...``).
+``pytest tests/fuzz --soak`` (or ``RATECTL_FUZZ_SOAK=1``) multiplies the examples by
+``SOAK_FACTOR`` and draws fresh random examples (``RATECTL_SOAK_FACTOR`` overrides the
+factor). The number of library calls made and the failures seen are printed at the end
+of the run (``fuzz: ...``).
 """
 
 from __future__ import annotations
@@ -51,7 +52,13 @@ class Fuzz:
 
 @pytest.fixture
 def fuzz(request) -> Fuzz:
-    return Fuzz(bool(request.config.getoption("--soak", default=False)))
+    return Fuzz(_soak(request.config))
+
+
+def _soak(config) -> bool:
+    """The long mode: ``--soak`` or the environment variable ``RATECTL_FUZZ_SOAK=1``."""
+    env = os.environ.get("RATECTL_FUZZ_SOAK", "")
+    return bool(config.getoption("--soak", default=False)) or env not in ("", "0")
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
@@ -60,5 +67,5 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     failures = len(terminalreporter.stats.get("failed", []))
     total = sum(_COUNTS.values())
     parts = ", ".join(f"{k} {v}" for k, v in sorted(_COUNTS.items()))
-    mode = "soak" if config.getoption("--soak", default=False) else "default"
+    mode = "soak" if _soak(config) else "default"
     terminalreporter.write_line(f"fuzz ({mode}): {total} library calls ({parts}); failures: {failures}")

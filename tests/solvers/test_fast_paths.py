@@ -26,7 +26,9 @@ def _kkt_reference(P, b, lo, hi, x):
     at_lo = (x <= lo + eps) & ~at_hi
     gv = np.where(at_hi, np.maximum(g, 0.0), np.where(at_lo, np.maximum(-g, 0.0), np.abs(g)))
     gv = np.where(np.maximum(hi - lo, 0.0) <= eps, 0.0, gv)
-    return max(feas / (1.0 + np.max(np.abs(x))), np.max(gv) / scale)
+    ax = np.max(np.abs(x))
+    own = np.abs(np.diagonal(P)) * (1.0 + ax) + 1e-3 * (np.abs(b) + np.abs(P) @ np.abs(x)) + 1e-300
+    return max(feas / (1.0 + ax), np.max(gv) / scale, np.max(gv / own))
 
 
 def test_kkt_violation_equals_its_definition_bit_for_bit():

@@ -26,7 +26,6 @@ Jacobian ``ᴮJ = blockdiag(Rᵀ, Rᵀ) · [jacp; jacr]`` with ``R`` the frame's
 rotation, so ratectl's Jacobian is ``J = blockdiag(R, R) · ᴮJ``.
 """
 
-from __future__ import annotations
 
 from .driver import MujocoDriver
 from .export import compile_mjcf, to_mjcf

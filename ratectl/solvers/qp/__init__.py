@@ -63,8 +63,6 @@ by less than ``tolerance``: limits hold to 1e-6. Other backends (``"daqp"``,
 ``"quadprog"``, ``"proxqp"``, …) are called through `qpsolvers.solve_qp`.
 """
 
-from __future__ import annotations
-
 from .bounds import VelocityBounds, joint_velocity_bounds
 from .qp import QP
 

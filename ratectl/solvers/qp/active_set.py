@@ -160,8 +160,12 @@ def box_qp_exact(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, x
         x = np.minimum(np.maximum(xt, lo), hi)
         g = P @ x - b
         wrong = np.where(state > 0, g, np.where(state < 0, -g, -np.inf))
+        # a held joint leaves when its multiplier has the wrong sign beyond rounding, on
+        # the whole problem's scale or on its own (see kkt_violation)
+        own = 1e-3 * np.asarray(_own_scale(P, b, x, float(np.max(np.abs(x)))))
+        wrong = wrong / np.minimum(tol, own)
         j = int(np.argmax(wrong))
-        if not wrong[j] > tol:
+        if not wrong[j] > 1.0:
             return x, state
         state[j] = 0
     return None, None
@@ -171,7 +175,12 @@ def kkt_violation(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
     """How far x is from the optimum of ½xᵀPx − bᵀx over lo ≤ x ≤ hi, as the largest
     violation of the KKT conditions scaled by the problem's size: bound violation
     max(lo − x, x − hi, 0) and the projected gradient g = Px − b (zero for a free joint,
-    ≤ 0 at an upper bound, ≥ 0 at a lower one), relative to 1 + ‖b‖∞ + ‖P‖∞‖x‖∞.
+    ≤ 0 at an upper bound, ≥ 0 at a lower one), relative to 1 + ‖b‖∞ + ‖P‖∞‖x‖∞, and
+    each joint's projected gradient in its own units, g_i / (P_ii·(1 + ‖x‖∞) + 10⁻³·r_i)
+    with r_i = |b_i| + Σ_j |P_ij x_j| (the size of the terms that make g_i, so rounding
+    stays below 1e-12 of it). |g_i| / P_ii is a lower bound of how far joint i would move
+    if released: with weights of very different size (1e6 and 1e-6) a wrong-sign
+    multiplier can be tiny against ‖P‖∞ and still move the optimum by a large q̇.
     0 at the exact optimum; ratectl accepts an answer below 1e-9 (inf when an input is not
     finite: never accepted).
 
@@ -188,8 +197,9 @@ def kkt_violation(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
         return math.inf
     lol, hil = lo.tolist(), hi.tolist()
     feas = max(0.0, max(map(_sub, lol, xl)), max(map(_sub, xl, hil)))  # bound violation
-    gmax = 0.0
-    for xi, li, ui, gi in zip(xl, lol, hil, gl, strict=True):
+    gmax = jmax = 0.0
+    own = None
+    for i, (xi, li, ui, gi) in enumerate(zip(xl, lol, hil, gl, strict=True)):
         eps = 1e-12 * (1.0 + abs(xi))
         if max(ui - li, 0.0) <= eps:  # a fixed joint (lo = hi) has any multiplier
             continue
@@ -201,7 +211,20 @@ def kkt_violation(P: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
             gv = abs(gi)
         if gv > gmax:
             gmax = gv
-    return max(feas / (1.0 + ax), gmax / scale)
+        if gv > 0.0:
+            if own is None:
+                own = _own_scale(P, b, x, ax)
+            jv = gv / own[i]
+            if jv > jmax:
+                jmax = jv
+    return max(feas / (1.0 + ax), gmax / scale, jmax)
+
+
+def _own_scale(P: np.ndarray, b: np.ndarray, x: np.ndarray, ax: float) -> list[float]:
+    """Each joint's gradient scale P_ii·(1 + ‖x‖∞) + 10⁻³·(|b_i| + Σ_j |P_ij x_j|) (see
+    `kkt_violation`; the floor keeps an all-zero row from dividing by 0)."""
+    r = np.abs(b) + np.abs(P).dot(np.abs(x))
+    return (np.abs(np.diagonal(P)) * (1.0 + ax) + 1e-3 * r + 1e-300).tolist()
 
 
 def _eye(n):

@@ -74,7 +74,7 @@ class _BoundCache:
 
     __slots__ = ("src", "dt", "n", "limits", "vmax", "nvmax", "hi_lim", "lo_lim", "amax_dt",
                  "has_pos", "has_acc", "inv_dt", "lim2", "sgn2", "idx2", "vmax2", "adt", "two_over_a",
-                 "two_over_a2", "two_a", "vmax_l", "amax_dt_l", "near_hi_l", "near_lo_l")
+                 "two_over_a2", "two_a", "vmax_l", "amax_dt_l", "near_hi_l", "near_lo_l", "margins")
 
     def __init__(self, src, limits, dt, margin):  # private: the numbers are checked by its callers
         self.src, self.dt = src, dt
@@ -83,8 +83,14 @@ class _BoundCache:
         self.vmax = np.minimum(limits.vmax, _BIG)
         self.nvmax = -self.vmax
         self.vmax_l = self.vmax.tolist()
-        self.hi_lim = np.where(np.isfinite(limits.upper), limits.upper - margin, _BIG)
-        self.lo_lim = np.where(np.isfinite(limits.lower), limits.lower + margin, -_BIG)
+        # the margin of each joint is at most half its range: a joint narrower than twice
+        # the margin (a locked joint, lower == upper) is kept at the centre of its range,
+        # never pushed out of it by margins that cross
+        with np.errstate(invalid="ignore", over="ignore"):
+            m = np.minimum(margin, 0.5 * (limits.upper - limits.lower))
+        self.margins = m
+        self.hi_lim = np.where(np.isfinite(limits.upper), limits.upper - m, _BIG)
+        self.lo_lim = np.where(np.isfinite(limits.lower), limits.lower + m, -_BIG)
         afin = np.isfinite(limits.amax)
         a = np.where(afin, limits.amax, 1e200)
         self.two_a = 2.0 * a
@@ -220,11 +226,11 @@ def _bounds(cache, q, qd_prev, want_sources):  # private: cache is a _BoundCache
             pu = np.sqrt(cache.two_a * np.maximum(dup, 0.0))
             pl = -np.sqrt(cache.two_a * np.maximum(dlo, 0.0))
         bad = pl > pu
-        if bad.any():
+        if bad.any():  # only beyond a limit (q outside the range): the midpoint of the two
+            conflicts += [(int(i), ("position",)) for i in np.flatnonzero(bad & (pl - pu > _CTOL))]
             mid = 0.5 * (pl + pu)
             pl = np.where(bad, mid, pl)
             pu = np.where(bad, mid, pu)
-            conflicts += [(int(i), ("position",)) for i in np.flatnonzero(bad & (pl - pu > _CTOL))]
         nlo = np.maximum(lo, pl)
         nhi = np.minimum(hi, pu)
         if want_sources:
@@ -267,7 +273,9 @@ def joint_velocity_bounds(limits: Limits | Chain, *, q: np.ndarray | None = None
     """The per-joint box on q̇ for one step from velocity, position and acceleration
     limits (see `ratectl.qp`). ``limits`` is a Chain or `Limits`; ``q``
     (n,) enables the position bounds, ``qd_prev`` (n,) with ``dt`` [s] the acceleration
-    bounds; ``margin`` [rad or m] keeps that far from the position limits."""
+    bounds; ``margin`` [rad or m] keeps that far from the position limits, at most half
+    a joint's range: a joint narrower than 2·margin (a locked joint, lower == upper) is
+    kept at the centre of its range."""
     if n is None:
         n = np.asarray(limits.vmax).shape[0]
     lim = Limits.of(limits, n)

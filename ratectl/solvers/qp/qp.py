@@ -63,7 +63,8 @@ class QP(Solver):
             limit the QP returns exactly the DLS solution Jᵀ(JJᵀ + λ²I)⁻¹ξ.
         backend: ``"osqp"`` (default, kept warm across calls) or any solver name of
             `qpsolvers.solve_qp` (``"daqp"``, ``"quadprog"``, ``"proxqp"``, …).
-        margin: distance kept from the position limits [rad or m].
+        margin: distance kept from the position limits [rad or m]; per joint at most half
+            its range (a joint narrower than 2·margin is kept at the centre of its range).
         task_weights: as for the other solvers (W_x).
         joint_weights: as for the other solvers (W_q).
         objective: optional secondary objective (``"centring"``, ``"manipulability"``
