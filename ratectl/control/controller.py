@@ -127,6 +127,15 @@ def _checked_gain(gain) -> np.ndarray:
     return K
 
 
+def _checked_stamp(stamp) -> float:
+    """A target's stamp as a float [s] (NaN stays NaN: a value, which halts), or InputError
+    for text, a boolean or anything that is not a real number."""
+    if isinstance(stamp, (str, bytes, bool)) or not isinstance(stamp, (int, float, np.integer, np.floating)):
+        raise InputError(f"stamp must be a time in seconds on the controller clock ctrl.time, got {stamp!r}",
+                         argument="stamp", value=stamp)
+    return float(stamp)
+
+
 def _float_array(value, name: str, what: str) -> np.ndarray:
     try:
         return np.asarray(value, dtype=float)
@@ -389,6 +398,8 @@ class ResolvedRateController:
         """
         if frame != "base" and frame != "tool":
             raise InputError(f"frame must be 'base' or 'tool', got {frame!r}", argument="frame", value=frame)
+        if stamp is not None:
+            stamp = _checked_stamp(stamp)
         if self._tasks is not None and target is None and twist is None and qd_ff is None:
             return self._tasks_step(q, dt, stamp)  # tasks hook: targets come from the tasks
         return self._cycle(*self._validate(q, target, twist, dt, qd_ff, qdd_ff), stamp, frame)
@@ -533,9 +544,13 @@ class ResolvedRateController:
                 return self._halt(q, dt, f"target {defect}")
             self._target_ok = target.copy()
         if stamp is not None and target is not None:
-            age = self.time - float(stamp)
+            age = self.time - stamp
             if not age <= self.timeout:
                 return self._halt(q, dt, f"stale target: {age:.3g} s old > timeout {self.timeout:.3g} s")
+            if age < -self.timeout:  # from the future: the producer's clock is not this controller's
+                return self._halt(q, dt, f"target stamped {-age:.3g} s ahead of the controller clock "
+                                  f"ctrl.time (more than timeout {self.timeout:.3g} s): stamp it on "
+                                  "ctrl.time")
         return None
 
     # --- stage 2: the pose error and the twist to resolve

@@ -119,3 +119,24 @@ def test_smoothing_with_acceleration_feed_forward_at_the_velocity_limit(ur5e):
         q = cmd.q_next
         worst = max(worst, float(np.max(np.abs(cmd.qd) / ur5e.vmax)))
     assert worst <= 1.0 + 1e-9
+
+
+def test_a_stamp_must_be_a_time_and_a_target_from_the_future_halts():
+    """stamp='now' is a programming error (InputError, nothing moves); a target stamped far
+    ahead of ctrl.time means two clocks disagree: the cycle halts instead of trusting it
+    forever (it was never stale)."""
+    arm = rc.robots.ur5e()
+    q = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
+    T = arm.fk(q)
+    T[0, 3] += 0.05
+    ctrl = rc.ResolvedRateController(arm)
+    for bad in ("now", b"1", True, [1.0], object()):
+        with pytest.raises(rc.errors.InputError, match="stamp"):
+            ctrl.step(q, target=T, dt=1e-3, stamp=bad)
+    assert ctrl.time == 0.0
+    cmd = ctrl.step(q, target=T, dt=1e-3, stamp=1e9)
+    assert cmd.status == "halted" and "ahead of the controller clock" in cmd.reason
+    cmd = ctrl.step(q, target=T, dt=1e-3, stamp=ctrl.time + 0.5 * ctrl.timeout)  # within timeout: fine
+    assert cmd.status != "halted"
+    cmd = ctrl.step(q, target=T, dt=1e-3, stamp=float("nan"))
+    assert cmd.status == "halted" and "stale" in cmd.reason
