@@ -53,17 +53,16 @@ from ..errors import InputError, RatectlError, SingularityError
 from ..model.limits import (
     Limits,
     braking_speed,
-    braking_speed_discrete,
     speed_toward_limit,
     stopping_distance,
 )
 from ..singularity import analyze
 from ..spatial import pose_error_into, rigid_transform_defect
+from .approach import StraightApproach
 from .command import _RANK, STATUSES, Command, make_command
-from .goal import JointGoal
 from .jog import Jog
 from .progress import ProgressLimits
-from .smoothing import ProgressProfile, VelocityFilter
+from .smoothing import VelocityFilter
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -71,13 +70,9 @@ if TYPE_CHECKING:
 
 __all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver"]
 
-_APPROACH_ETA = 0.5  # fraction of amax (and jmax) the approach to a target plans its braking with
-_BRAKE_KAPPA = 0.8  # the share of that the approach brakes with (headroom for a goal still moving)
-_URGENT_ETA = 0.6  # the share of amax a late stop may use
-_OFF_ETA = 0.3  # the share that brings the motion off the approach line to rest (sum < 1)
-_JOG_SHARE = 0.5  # share of amax (and jmax) a jog's progress may use itself
-_KIND_NEAR = 0.5  # the σ band in which `analyze` names the singularity a jog stops before
-_GOAL_STEPS = 10  # descent steps per cycle toward the joint goal until it is settled
+_SHARE = 0.5  # share of amax (and jmax) the progress of an approach or a jog may use itself
+_KIND_NEAR = 0.5  # the σ band in which `analyze` names the singularity a progress stops before
+_LAG_MAX = 0.02  # [m, weighted]: the approach's progress stops when the arm is this far behind it
 _BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
 _NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
 
@@ -147,7 +142,8 @@ class _Cycle:
     """The working state of one control cycle, passed from stage to stage."""
 
     __slots__ = ("J", "e", "ep", "eo", "xi", "target", "res", "qd", "qdd", "q_next", "flags", "reasons",
-                 "active", "scale", "smin", "braking", "approach", "qdd_ff", "approach_qd", "kind")
+                 "active", "scale", "smin", "braking", "approach", "qdd_ff", "approach_qd", "kind",
+                 "blocked")
 
     J: np.ndarray
     e: np.ndarray
@@ -173,6 +169,7 @@ class _Cycle:
         self.qdd_ff = None
         self.approach_qd = None
         self.kind: str | None = None
+        self.blocked = ""
         self.scale = 1.0
         self.smin = None  # σ_min of the solve, read on demand (`ResolvedRateController._sigma`)
 
@@ -262,8 +259,6 @@ class ResolvedRateController:
         else:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
-        self._progress: ProgressProfile | None = None
-        self._off_filter: VelocityFilter | None = None
         self._zeros = np.zeros(n)
         self._zeros6 = np.zeros(6)
         self._all_joints = np.ones(n, dtype=bool)
@@ -281,9 +276,6 @@ class ResolvedRateController:
             if self.filter.dof != n:
                 raise InputError(f"the VelocityFilter has {self.filter.dof} joints, the chain {n}",
                                  argument="smoothing", value=smoothing)
-            # the share of the limits the approach to a target plans with (the rest is headroom)
-            self._approach_amax = _APPROACH_ETA * self.filter.amax
-            self._approach_jmax = _APPROACH_ETA * self.filter.jmax
             if self.limits is not None and self._has_p:
                 # a jerk-limited joint needs more room to stop: widen the "near a limit" gate
                 f = self.filter
@@ -292,10 +284,6 @@ class ResolvedRateController:
         self.position_tolerance = positive_number("position_tolerance", position_tolerance, unit="[m]")
         self.orientation_tolerance = positive_number("orientation_tolerance", orientation_tolerance,
                                                      unit="[rad]")
-        lim_lo, lim_hi = ((self._plo, self._phi) if self.limits is not None
-                          else (np.full(n, -_BIG), np.full(n, _BIG)))
-        self._goal = JointGoal(chain, lim_lo, lim_hi, position_tolerance=self.position_tolerance,
-                               orientation_tolerance=self.orientation_tolerance)
         self.timeout = positive_number("timeout", timeout, allow_inf=True, unit="[s]")
         self.singular_sigma = positive_number("singular_sigma", singular_sigma, allow_zero=True)
         self._init_jog(stop_sigma)
@@ -310,10 +298,12 @@ class ResolvedRateController:
             stop_sigma = max(float(getattr(self.solver, "epsilon", 0.0) or 0.0), self.singular_sigma)
         self.stop_sigma = positive_number("stop_sigma", stop_sigma, allow_zero=True)
         jmax = self.filter.jmax if self.filter is not None else None  # jerk-limited only when smoothed
-        self._jog_limits = ProgressLimits(self.chain, self.limits, jmax=jmax, accel_share=_JOG_SHARE,
+        self._bounds = ProgressLimits(self.chain, self.limits, jmax=jmax, accel_share=_SHARE,
                                           stop_sigma=self.stop_sigma,
                                           watch_sigma=max(4.0 * self.stop_sigma, 1e-6))
         self._jogger = Jog()
+        self._straight = StraightApproach(length=self.chain.characteristic_length)
+        self._lag_max = _LAG_MAX
 
     def _check_finite_limits(self) -> None:
         c = self.chain
@@ -341,7 +331,7 @@ class ResolvedRateController:
         self._q_last = None
         self._q_next_last = None
         self._latched = ""
-        self._goal.reset()
+        self._straight.reset()
         self._jogger.reset()
         self._singular_kind: str | None = None
         self._dt_last = None
@@ -414,20 +404,21 @@ class ResolvedRateController:
         if frame == "tool" and twist is not None:  # tool axes → base axes: [R v; R ω]
             R = self.chain.fk(q)[:3, :3]
             twist = np.concatenate([R @ twist[:3], R @ twist[3:]])
-        if target is None and qd_ff is None and twist is not None:
-            cyc = _Cycle()
+        servo = target is not None and qd_ff is None and (twist is None or not twist.any())
+        cyc = _Cycle()
+        if servo:
+            self._jogger.reset()
+            halt = self._servo(cyc, q, dt, target)
+        elif target is None and qd_ff is None and twist is not None:
+            self._straight.reset()
             halt = self._jog(cyc, q, dt, twist)
         else:
             self._jogger.reset()
+            self._straight.reset()
             cyc = self._error(q, target, twist)
             halt = self._solve(cyc, q, dt, qd_ff)
         if halt is not None:
             return halt
-        servo = target is not None and qd_ff is None and (twist is None or not twist.any())
-        if servo:
-            halt = self._approach(cyc, q, dt, target)
-            if halt is not None:
-                return halt
         self._limit(cyc, q, dt)
         halt = self._smooth(cyc, q, dt, qdd_ff)
         if halt is not None:
@@ -452,6 +443,12 @@ class ResolvedRateController:
         within = cyc.ep <= self.position_tolerance and cyc.eo <= self.orientation_tolerance
         if within:
             cyc.flags.insert(0, "target-reached")
+            return
+        if cyc.blocked:  # the straight line is blocked where the arm stands
+            cyc.flags.insert(0, "target-unreachable")
+            cyc.reasons.insert(0, f"stopped {cyc.ep * 1e3:.3g} mm / {math.degrees(cyc.eo):.3g}° from the "
+                               f"target, {cyc.approach:.0%} of the way along the straight line to it, "
+                               f"which is blocked: {cyc.blocked}")
             return
         # stopped short: below 1 % of that, now and one time constant ahead (an arm that
         # creeps toward a singular target, damped, is still on its way)
@@ -623,303 +620,61 @@ class ResolvedRateController:
             cyc.flags.append("velocity-scaled")
         return None
 
-    # --- stage 3b: the approach to a target
-    def _approach(self, cyc: _Cycle, q, dt, target) -> Command | None:
-        """Shape the feedback q̇ = solver(J, K e) so that the arm can still stop at the
-        target within the joint limits (pure servoing: a target, no feed-forward).
-
-        Without smoothing: the joint travel still to go is, to first order, w = J⁺e = q̇/K
-        (the solver is linear in ξ; for a vector gain the largest K, which under-estimates
-        w: the safe side). Joint i may approach at most at the speed from which it can stop
-        within w_i, ``braking_speed_discrete`` at η·amax in periods of dt (the discrete
-        √(2 η amax w)); q̇ is scaled uniformly by the smallest ratio, so the tool keeps its
-        straight approach; η = 1/2 keeps headroom for the change of J along the way. Far
-        from the target (K·w below the braking speed) this is the proportional law.
-        With smoothing: `_approach_smoothed`. A solver that enforces limits itself (the
-        QP) solves again with the scaled twist."""
-        qd = cyc.qd
-        if self._inv_kmax == 0.0 or self.limits is None:
-            return None
-        speed = np.abs(qd)
-        moving = speed > 0.0
-        if not moving.any():
-            return None
-        within = cyc.ep <= self.position_tolerance and cyc.eo <= self.orientation_tolerance
-        if self.filter is not None:
-            plan = self._approach_smoothed(cyc, q, qd, dt, target)
-            if plan is None:
-                return None
-            r, qd_ref, qdd_ref = plan
-            r_brake = r
-        elif self._has_a:
-            enforcing = getattr(self.solver, "enforces_limits", False)
-            held = None
-            if enforcing:
-                free = self._unboxed_solution(cyc, q, dt)
-                if free is None:
-                    return None
-                qd, speed = free, np.abs(free)
-                moving = speed > 0.0
-                if not moving.any():
-                    return None
-            if not enforcing and self._has_p and self._near_position_limit(q, dt):
-                held = self._hold_joints_at_limits(cyc, q, dt)
-                if held is not None:
-                    qd = cyc.qd
-                    speed = np.abs(qd)
-                    moving = (speed > 0.0) & ~held
-                    if not moving.any():
-                        return None
-            w = speed * self._inv_kmax
-            adt = self._amax_f * (_APPROACH_ETA * dt)
-            b = braking_speed_discrete(w, adt, 1.0 / (adt * dt), 1.0 / dt)
-            r = r_brake = float(np.min(b[moving] / speed[moving]))
-            qd_ref, qdd_ref = None, None
-            r, qd_ref = self._within_amax(cyc, qd, min(r, 1.0), dt, held)
-            if qd_ref is None:
-                if r >= 1.0:
-                    return None
-                qd_ref = qd * r
-                if held is not None:
-                    qd_ref[held] = qd[held]
-        else:
-            return None
-        cyc.approach = max(r, 0.0)
-        if min(r, r_brake) < 1.0 - 1e-9 and not within:
-            # inside the tolerance the arm has arrived: its last braking is not a limit
-            cyc.flags.append("acceleration-limited")
-            if r < 0.0:  # (smoothing: the filter still moves away from a goal that changed)
-                cyc.reasons.append("approach to the target: first braking the motion that leads "
-                                   "away from it, within amax and jmax")
-            elif r_brake < 1.0 - 1e-9:
-                cyc.reasons.append(f"approach to the target slowed to {r_brake:.3g}× its proportional "
-                                   "speed to stop there within amax")
-        if getattr(self.solver, "enforces_limits", False):
-            if qdd_ref is None:  # the law along the line: the same twist, scaled
-                cyc.xi = cyc.xi * r
-                halt = self._solve(cyc, q, dt, None)
-            else:
-                # the smoothed reference, kept as it is wherever the solver's limits (and
-                # extra rows) allow: it is the solver's feed-forward with nothing more to
-                # resolve, so the solver only corrects it where a bound would be violated
-                # (a scaled twist re-resolved would not be the reference the filter meets)
-                twist = cyc.J @ qd_ref
-                cyc.xi = self._zeros6
-                halt = self._solve(cyc, q, dt, qd_ref)
-                cyc.xi = twist
-            cyc.qdd_ff, cyc.approach_qd = qdd_ref, cyc.qd
-            return halt
-        # the twist of the command: the scaled one, or the tool twist of the smoothed reference
-        cyc.xi = cyc.xi * r if qdd_ref is None else cyc.J @ qd_ref
-        cyc.qd = cyc.approach_qd = qd_ref
-        cyc.qdd_ff = qdd_ref
-        return None
-
-    def _unboxed_solution(self, cyc: _Cycle, q, dt) -> np.ndarray | None:
-        """A limit-enforcing solver's q̇ for the twist without its acceleration box (no
-        ``qd_prev``; velocity and position bounds stay): the direction the approach scales
-        along its line, or None if that solve fails (the boxed answer then stands).
-
-        From rest the box |q̇ − q̇_prev| ≤ amax·dt binds on a large turn, and the QP's least-
-        squares answer inside it does not keep the direction of ξ: a pure 90° turn moved a
-        UR5e's tool 286 mm off its position. Scaled along this direction by `_within_amax`,
-        the twist the QP then solves fits the box, as on the default path. Where the vmax
-        box binds, a smaller twist is solved and the answer scaled back (the QP is linear
-        in ξ while no bound binds)."""
-        scale = 1.0
-        for _ in range(6):
+    # --- stage 3b: the straight approach to a target
+    def _servo(self, cyc: _Cycle, q, dt, target) -> Command | None:
+        """The straight approach (`StraightApproach`): fk and J at q, the segment (a new one
+        when the target changed), one period of the progress within the joint limits mapped
+        onto it (`ProgressLimits`), and the solve of ξ = ṡ̄·d + K·e_ref, the mean progress
+        speed of the period along the direction plus feedback on the error to the reference
+        pose T(s)."""
+        T, J = self.chain.fk_jacobian(q)
+        cyc.J = J
+        cyc.target = True
+        ap = self._straight
+        if ap.target is None or not np.array_equal(target, ap.target):
+            if ap.target is None:  # a first target: from the measured pose and the arm's motion
+                ap.retarget(target, T, J @ self._qd, J @ self._qdd)
+            else:  # a new target: from the reference, which goes on without a jump
+                ap.retarget(target, ap.pose(ap.s), ap.sd * ap.d, ap.sdd * ap.d)
+        e = cyc.e = np.zeros(6)
+        cyc.ep, cyc.eo = pose_error_into(e, target, T)
+        e_ref = np.zeros(6)
+        pose_error_into(e_ref, ap.pose(ap.s), T)
+        caps = None
+        w = None
+        speed = 0.0
+        if ap.L > 0.0:
             try:
-                res = self.solver.solve(cyc.J, cyc.xi * scale, limits=self.limits, q=q, qd_prev=None,
-                                        dt=dt)
-            except (RatectlError, np.linalg.LinAlgError):
-                return None
-            qd = np.array(res.qd, dtype=float)
-            if not _finite_sum(qd):
-                return None
-            if "velocity" not in res.limits_active:
-                return qd / scale
-            # the vmax box bound too (its least-squares answer leaves ξ's direction as well):
-            # solve a smaller twist, the uniform vmax scaling is `_within_amax`'s
-            scale *= 0.3 * float(np.min(self._vf / np.maximum(np.abs(qd), 1e-300)))
+                res_w = self._direction(J, ap.d, q, dt)
+            except SingularityError as err:
+                return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
+                                  error=cyc.e, ep=cyc.ep, eo=cyc.eo)
+            except (RatectlError, np.linalg.LinAlgError) as err:
+                return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
+            w = np.array(res_w.qd, dtype=float)
+            caps = self._bounds.caps(q, w, dt=dt, sigma=self._sigma_for_watch(res_w),
+                                       w_prime=ap.w_prime(w), solve_direction=self._sigma_ahead)
+            lag = ap.weighted_norm(e_ref)
+            w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother
+            speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max))
+            if self.filter is not None:
+                # the filter integrates exactly: its target is the state at the end of the
+                # period (ṡ₁ with s̈₁), where q + q̇·dt needs the period's mean speed
+                speed = ap.sd
+            ap.w_prev = w
+        cyc.xi = ap.d * speed + self.gain * e_ref
+        halt = self._solve(cyc, q, dt, None)
+        if halt is not None:
+            return halt
+        if w is not None and self.filter is not None:
+            # the reference's acceleration s̈·w + ṡ·ẇ, which the filter then meets without lag
+            cyc.qdd_ff = w * ap.sdd if w_rate is None else w * ap.sdd + w_rate * ap.sd
+            cyc.approach_qd = cyc.qd
+        if caps is not None:
+            self._progress_flags(cyc, q, caps, ap.sd > 0.0 or speed > 0.0, ap.sd >= caps.speed * (1.0 - 1e-9))
+            cyc.blocked = caps.reason if (caps.blocked_by and ap.sd == 0.0) else ""
+            cyc.approach = ap.s / ap.L
         return None
-
-    def _hold_joints_at_limits(self, cyc: _Cycle, q, dt) -> np.ndarray | None:
-        """Joints the position box holds at a limit (no smoothing, a solver that does not
-        enforce limits): clipped there now, and left out of what scales the others; returns
-        their mask, or None.
-
-        A joint whose solver q̇ the position side of its velocity box (`_position_box`)
-        clips is held at that box value. Its demand, which the clip never executes, scaled
-        every other joint: through the solver's own uniform vmax scaling (undone here: the
-        controller's `_limit_velocity` scales the clipped q̇ afterwards) and the approach's
-        amax factor along the line (``_within_amax`` skips held joints), ≈ amax·dt/|q̇_i|,
-        e.g. ×0.0115 on a Panda with joint 4 on its limit: an arm whose target is out of
-        reach crept toward it for minutes instead of stopping at its best effort and
-        reporting ``target-unreachable``. The others keep the solver's direction (a solve
-        without the held joint would chase the target with them: 63 mm off the path of a
-        Panda turn held by joint 7)."""
-        hi, lo = self._position_box(q, dt)
-        qd = cyc.qd
-        held = (qd > hi) | (qd < lo)
-        if not held.any():
-            return None
-        scale = max(float(cyc.res.velocity_scale), 1e-300)
-        cyc.qd = np.minimum(np.maximum(qd / scale, lo), hi)
-        cyc.scale = 1.0
-        if "velocity-scaled" in cyc.flags:
-            cyc.flags.remove("velocity-scaled")
-        cyc.flags.insert(0, "joint-limit")
-        cyc.reasons.insert(0, f"joint(s) {self._named(held)} held at a position limit")
-        cyc.active.append("position")
-        return held
-
-    def _within_amax(self, cyc: _Cycle, qd, r, dt, held=None):
-        """The approach's q̇ within amax of the previous one, as close to the straight tool
-        approach as amax allows: returns (r, q̇) or (r, None) to leave it to the limits.
-
-        The factor on the solver's q̇ nearest to the braking law's ``r`` (and within vmax)
-        such that |r q̇_i − q̇_prev,i| ≤ amax_i dt for every joint keeps the tool on its line
-        (a scale of q̇, not of its change). When none exists (J turns q̇ faster than amax
-        allows at this speed, e.g. near σ_min ≈ 0.08 on a 439 mm Panda step), every joint
-        changes toward r* q̇ as fast as its own amax allows, r* ≤ r the factor that needs
-        the least of the limits: the uniform scaling of the change made every joint as slow
-        as the slowest (×0.015), the arm kept its old joint direction, the tool left its
-        line by 32 mm and the braking law, which assumes the line, overshot by 43 mm."""
-        # on the few numbers of one cycle, plain Python is several times cheaper than numpy
-        c = dt * (1.0 - 1e-12)
-        lo = -math.inf
-        r_v = hi = math.inf
-        fits = True
-        for i, (v, p, a, vm) in enumerate(zip(qd.tolist(), self._qd.tolist(), self._amax_f.tolist(),
-                                              self._vf.tolist(), strict=True)):
-            room = a * c
-            if held is not None and held[i]:
-                continue  # a joint held at its limit keeps its position-box value (not scaled)
-            if v == 0.0:
-                fits = fits and abs(p) <= room  # a joint the line does not move must stop in time
-                continue
-            r_v = min(r_v, vm / abs(v))
-            x, y = (p - room) / v, (p + room) / v
-            if x > y:
-                x, y = y, x
-            lo = max(lo, x)
-            hi = min(hi, y)
-        want = min(r, r_v)
-        if fits and max(lo, 0.0) <= min(want, hi):  # never faster than `want` to stay on it
-            if hi >= want:
-                return r, None  # the limits leave it on the line (velocity scaling applies)
-            r_line = hi  # speeding up along the line, within amax
-            cyc.flags.append("acceleration-limited")
-            cyc.reasons.append(f"approach speed {r_line:.3g}× its proportional speed, changed within "
-                               "amax along the straight line to the target")
-            cyc.active.append("acceleration")
-            qd_line = qd * r_line
-            if held is not None:
-                qd_line[held] = qd[held]
-            return r_line, qd_line
-        # no factor fits: the least demanding one up to `want`, each joint toward it within amax
-        prev = self._qd
-        adt = self._amax_f * c
-        inv = 1.0 / adt
-        grid = np.linspace(0.0, want, 33)
-        free = slice(None) if held is None else ~held
-        need = np.max((np.abs(np.outer(grid, qd) - prev) * inv)[:, free], axis=1, initial=0.0)
-        r_best = float(grid[int(np.argmin(need))])
-        goal = qd * r_best
-        if held is not None:
-            goal[held] = qd[held]
-        qd_new = prev + np.minimum(np.maximum(goal - prev, -adt), adt)
-        cyc.flags.append("acceleration-limited")
-        cyc.reasons.append(f"approach turned faster than amax allows: each joint changes toward "
-                           f"{r_best:.3g}× the proportional speed within its own amax")
-        cyc.active.append("acceleration")
-        return r_best, qd_new
-
-    def _approach_smoothed(self, cyc: _Cycle, q, qd, dt, target):
-        """The approach law for the jerk-limited filter: a reference (q̇, q̈) that the filter
-        meets exactly one period later — so it never lags, and lag cannot turn into
-        overshoot — and from which the arm can always still come to rest at the target.
-
-        The approach is planned in joint space, where the geometry is flat: toward the
-        joint goal g at which the tool reaches the target (`JointGoal`: error-decreasing
-        Levenberg–Marquardt steps from the measured q inside the joint range; for a target
-        out of reach a least-squares best, where the arm stops), along the straight line
-        u = (g − q)/x, x = ‖g − q‖. On u the progress may move at ẋ ≤ minᵢ vmaxᵢ/|uᵢ|,
-        accelerate at α = η·minᵢ amaxᵢ/|uᵢ| and jerk at ζ = η·minᵢ jmaxᵢ/|uᵢ|. The
-        filter's state (v, a) splits into its part along u, (ṡ, s̈) = (v·u, a·u), and the
-        rest (v⊥, a⊥) (zero when the motion started at rest toward a fixed target). The
-        reference is the sum of
-
-        * one period of the time-optimal jerk-limited progress from (ṡ, s̈) to rest at x
-          (`ProgressProfile`, Ruckig with one degree of freedom) under ẋ ≤ min(vcap, K x)
-          (the proportional law caps the speed the progress may reach, not how hard it
-          brakes: the gain sets how fast the target is approached), acceleration α and
-          braking κ·α (headroom for the goal still moving), re-planned every cycle from
-          the measured q; if the stop no longer fits at κ·α it brakes with the urgent
-          share, without speeding up;
-        * one period of the jerk-limited decay of (v⊥, a⊥) to rest, the joints
-          synchronised, within a share η⊥ of amax and jmax (a second `VelocityFilter`),
-          projected off u (so the progress along u is exactly the planned one).
-
-        Each is a jerk-limited motion within its share of the limits, and the shares add
-        up to less than 1, so the sum is reachable from the filter's state in one period
-        strictly inside |q̈| ≤ amax, |q⃛| ≤ jmax (a target on the boundary of what one
-        period can reach makes Ruckig plan a longer motion than one period, which is lag
-        again). The tool follows the image of a straight joint line to the inverse
-        kinematics of the target, and the progress along it is exact (no change of J
-        enters it), so it stops at the target. Returns (r, q̇_ref, q̈_ref) with
-        r = ẋ/(K x) the fraction of the proportional speed, or None (the proportional
-        law unshaped) at the goal or if Ruckig finds no progress motion."""
-        f = self.filter
-        assert f is not None
-        goal = self._goal.update(q, target, steps=_GOAL_STEPS)
-        w = goal - q
-        x = float(np.sqrt(w @ w))
-        if not x > 0.0:
-            return None
-        K = 1.0 / self._inv_kmax
-        u = w / x
-        moving = u != 0.0
-        au = np.abs(u)[moving]
-        vcap = float(np.min(f.vmax[moving] / au))
-        alpha = float(np.min(self._approach_amax[moving] / au))
-        zeta = float(np.min(self._approach_jmax[moving] / au))
-        v, a = self._qd, self._qdd
-        s_v = float(v @ u)
-        s_a = float(a @ u)
-        brake = _BRAKE_KAPPA * alpha
-        # the proportional cap K·x limits how fast the progress may get, never how hard it
-        # brakes: a speed above it is held (the braking curve then brings it to rest at x),
-        # else Ruckig would brake at full α toward a cap that shrinks with x and reach the
-        # end of its stop with an acceleration it can no longer ramp out (a reversal)
-        cap = min(vcap, max(K * x, s_v))
-        if s_v > 0.0 and stopping_distance(s_v, s_a, brake, zeta) > x * (1.0 + 1e-6):
-            # late (the plan rides its braking curve, so only a disturbance gets here, e.g.
-            # a loop that integrates q̇·dt instead of the filter's motion): brake with the
-            # urgent share, and never speed up with it
-            brake = alpha * (_URGENT_ETA / _APPROACH_ETA)
-            cap = min(vcap, s_v)
-        if self._progress is None:
-            self._progress = ProgressProfile(dt)
-        nxt = self._progress.step(x, min(max(s_v, -vcap), vcap), s_a, vmax=max(cap, 1e-12),
-                                  amax=alpha, jmax=zeta, dt=dt, brake=brake)
-        if nxt is None:
-            return None
-        v1, a1 = nxt
-        off = self._off_filter
-        if off is None:
-            off = self._off_filter = VelocityFilter(self._n, dt=dt, vmax=2.0 * f.vmax,
-                                                    amax=_OFF_ETA * f.amax, jmax=_OFF_ETA * f.jmax)
-        if abs(off.dt - dt) > 1e-15:
-            off.dt = dt
-        off.reset(v - s_v * u, a - s_a * u)
-        _, w_off, b_off = off.update(self._zeros, self._zeros)
-        # the synchronised decay is not parallel to its start, so it has a part along u; taken
-        # out, the progress along u is exactly the planned one (else the off-line decay after a
-        # halt or a change of target pushed the progress past its braking curve)
-        w_off -= float(w_off @ u) * u
-        b_off -= float(b_off @ u) * u
-        return v1 / (K * x), v1 * u + w_off, a1 * u + b_off
 
     # --- stage 3c: jogging along a twist
     def _direction(self, J: np.ndarray, d: np.ndarray, q: np.ndarray, dt: float) -> Any:
@@ -937,10 +692,10 @@ class ResolvedRateController:
         """σ_min of a direction solve when it may be below the watch threshold, else None
         (decided without computing σ_min when the result can)."""
         at_least = getattr(res, "sigma_min_at_least", None)
-        if at_least is not None and at_least(self._jog_limits.watch_sigma):
+        if at_least is not None and at_least(self._bounds.watch_sigma):
             return None
         smin = float(res.sigma_min)
-        return smin if smin < self._jog_limits.watch_sigma else None
+        return smin if smin < self._bounds.watch_sigma else None
 
     def _jog(self, cyc: _Cycle, q, dt, twist) -> Command | None:
         """Jogging (`Jog`): q̇ = c·J⁺ξ with c ∈ [0, 1] within the joint limits mapped onto the
@@ -970,7 +725,7 @@ class ResolvedRateController:
             return self._halt(q, dt, "solver returned a non-finite q̇")
         wp = jog.w_prev
         w_prime = (w - wp) / (jog.c * dt) if (wp is not None and jog.c > 0.0) else None
-        caps = self._jog_limits.caps(q, w, dt=dt, sigma=self._sigma_for_watch(res_w), w_prime=w_prime,
+        caps = self._bounds.caps(q, w, dt=dt, sigma=self._sigma_for_watch(res_w), w_prime=w_prime,
                                    solve_direction=self._sigma_ahead)
         c_prev = jog.c
         c = jog.advance(caps, dt)
@@ -1015,7 +770,7 @@ class ResolvedRateController:
         elif caps.binding in ("velocity", "curvature") and at_bound and moving:
             cyc.flags.append("velocity-scaled")
             cyc.active.append("velocity")
-            cyc.reasons.append(f"moving at the speed limit of joint {self._jog_limits.name(caps.joint)} "
+            cyc.reasons.append(f"moving at the speed limit of joint {self._bounds.name(caps.joint)} "
                                "along the commanded direction")
 
     # --- stage 4: the limits
@@ -1047,7 +802,7 @@ class ResolvedRateController:
         if near and not enforcing:
             self._limit_position(cyc, q, dt)
         if self.filter is not None and near:
-            reference = cyc.qdd_ff if (cyc.qd is cyc.approach_qd and cyc.qdd_ff is not None) else None
+            reference = None  # the progress reference is not met exactly: the worst case one period ahead
             cyc.qd, cyc.braking = self._jerk_limited_position_guard(q, cyc.qd, dt, cyc.flags,
                                                                     cyc.reasons, cyc.active, reference)
         res = cyc.res

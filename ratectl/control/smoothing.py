@@ -144,7 +144,12 @@ class VelocityFilter:
             inp.per_dof_synchronization = None
             self._per_dof = False
         inp.current_position = q.tolist() if type(q) is np.ndarray else list(q)
-        vt = np.minimum(np.maximum(qd_target, self._neg_vmax), self.vmax)  # (np.clip is slower)
+        # within ±vmax, less what the present acceleration still adds while it ramps down at
+        # jmax (a²/(2·jmax)): a target at vmax reached with a > 0 would pass it
+        a_now = np.asarray(inp.current_acceleration)
+        ramp = a_now * a_now / (2.0 * self.jmax)
+        vt = np.minimum(np.maximum(qd_target, self._neg_vmax + np.where(a_now < 0.0, ramp, 0.0)),
+                        self.vmax - np.where(a_now > 0.0, ramp, 0.0))
         ta = None
         if qdd_target is not None:
             ta = np.minimum(np.maximum(qdd_target, -self.amax), self.amax)
@@ -185,6 +190,21 @@ class VelocityFilter:
             inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
             self._per_dof = True
             res = self._calculate()
+        elif not self._per_dof and own is None and self._out.trajectory.duration > self.dt * (1.0 + 1e-9):
+            # every joint could meet its target within the period, yet the synchronised motion
+            # is longer (Ruckig finds no common duration of exactly dt for some targets with
+            # accelerations, and takes the next feasible one, far later): met each on its own,
+            # the joints reach the reference, up to the few 1e-5 rad/s that a joint finishing
+            # early moves at its target acceleration until the period ends
+            # (a joint near vmax gets no target acceleration: finishing early, it would pass vmax)
+            if max(self._out.trajectory.independent_min_durations) <= self.dt * (1.0 + 1e-9):
+                if ta is not None:
+                    near_v = np.abs(vt) + np.abs(ta) * self.dt >= self.vmax
+                    if near_v.any():
+                        inp.target_acceleration = np.where(near_v, 0.0, ta).tolist()
+                inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
+                self._per_dof = True
+                res = self._calculate()
         if res not in self._ok:
             raise SolverError(f"Ruckig velocity filter failed: {res}", status=res,
                               problem={"target_velocity": vt, "velocity": inp.current_velocity,
@@ -240,8 +260,8 @@ class ProgressProfile:
              dt: float, brake: float | None = None):
         """From progress 0 at speed ``v`` and acceleration ``a``, the time-optimal motion to
         rest at ``x`` under |ẋ| ≤ vmax, |x⃛| ≤ jmax, accelerating toward ``x`` by at most
-        ``amax`` and decelerating by at most ``brake`` (default amax): returns its (speed, acceleration) one
-        period ``dt`` later, or None if Ruckig finds no motion."""
+        ``amax`` and decelerating by at most ``brake`` (default amax): returns its (progress,
+        speed, acceleration) one period ``dt`` later, or None if Ruckig finds no motion."""
         if self._otg.delta_time != dt:
             self._otg.delta_time = dt
         inp = self._inp
@@ -262,7 +282,8 @@ class ProgressProfile:
             return None
         if res not in self._ok:
             return None
-        return self._out.new_velocity[0], self._out.new_acceleration[0]
+        out = self._out
+        return out.new_position[0], out.new_velocity[0], out.new_acceleration[0]
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -1,0 +1,168 @@
+"""The servo's straight approach to a target.
+
+**Approach** (`StraightApproach`): the tool moves on the straight pose interpolation from
+where the approach began to the target — the position on the straight line, the orientation
+on the SO(3) geodesic — parametrised by its length
+
+    s ∈ [0, L],  L = √(‖Δp‖² + ℓ²θ²),   T(s) = (p₀ + (s/L)Δp,  exp((s/L)·r) R₀)
+
+with Δp = p_d − p₀, r = log(R_d R₀ᵀ) (base axes, θ = ‖r‖) and ℓ a length that weighs the
+rotation (the chain's characteristic length). The unit direction d = [Δp; r]/L has
+‖d‖_W = 1 in the metric ⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω. The progress s(t) is a
+jerk-limited 1-D motion to rest at L (Ruckig with one degree of freedom), re-planned every
+period from its own state under the bounds of `ProgressLimits` (joint limits mapped onto
+the progress). When the target changes, a new segment starts at the current reference pose,
+with the reference's motion projected onto the new direction, so a target that moves is
+pursued without a jump of the reference.
+
+Jogging along a commanded twist uses the same bounds (`ratectl.control.jog`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..model.limits import stopping_distance
+from ..spatial import so3_exp, so3_log
+from .progress import ProgressCaps
+from .smoothing import ProgressProfile
+
+__all__ = ["StraightApproach"]
+
+_URGENT = 2.0  # a late stop brakes with up to this multiple of the bound (all of amax at η = 1/2)
+
+
+def _stop(v: float, a: float, brake: float, jerk: float) -> float:
+    """The distance of the jerk-limited stop from speed ``v`` and acceleration ``a``."""
+    return float(stopping_distance(v, a, brake, jerk, exact_when_braking=True))
+
+
+class StraightApproach:
+    """The reference of the servo's approach: a straight segment and the progress along it
+    (see the module docstring). Owns the segment and the progress state.
+
+    Args:
+        length: ℓ [m], the length that weighs rotation against translation in the progress.
+    """
+
+    def __init__(self, *, length: float) -> None:
+        self.length = float(length)
+        self._l2 = self.length * self.length
+        self._profile: ProgressProfile | None = None
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the segment and the progress (the next target starts a new approach)."""
+        self.target: np.ndarray | None = None
+        self.p0 = np.zeros(3)
+        self.R0 = np.eye(3)
+        self.dp = np.zeros(3)
+        self.r = np.zeros(3)
+        self.L = 0.0
+        self.d = np.zeros(6)
+        self.s = 0.0
+        self.sd = 0.0
+        self.sdd = 0.0
+        self.w_prev: np.ndarray | None = None
+        self.s_prev = 0.0
+        self._brake = 0.0
+
+    def weighted_dot(self, a: np.ndarray, b: np.ndarray) -> float:
+        """⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω for two twists (6,)."""
+        return float(a[:3] @ b[:3] + self._l2 * (a[3:] @ b[3:]))
+
+    def weighted_norm(self, e: np.ndarray) -> float:
+        """‖e‖_W for a twist or a pose error (6,)."""
+        return math.sqrt(max(self.weighted_dot(e, e), 0.0))
+
+    def retarget(self, target: np.ndarray, T_from: np.ndarray, twist: np.ndarray,
+                 accel: np.ndarray) -> None:
+        """A new segment from ``T_from`` to ``target`` (4×4 poses); the progress starts at 0
+        with the speed and acceleration of the motion ``twist``, ``accel`` (6,) projected on
+        the new direction (never backwards)."""
+        self.target = target.copy()
+        self.p0 = T_from[:3, 3].copy()
+        self.R0 = T_from[:3, :3].copy()
+        self.dp = target[:3, 3] - self.p0
+        self.r = so3_log(target[:3, :3] @ self.R0.T)
+        L = math.sqrt(float(self.dp @ self.dp) + self._l2 * float(self.r @ self.r))
+        self.L = L
+        self.s = 0.0
+        self.w_prev = None
+        self.s_prev = 0.0
+        self._brake = 0.0
+        if L > 0.0:
+            self.d = np.concatenate([self.dp, self.r]) / L
+            self.sd = max(self.weighted_dot(twist, self.d), 0.0)
+            self.sdd = self.weighted_dot(accel, self.d) if self.sd > 0.0 else max(
+                self.weighted_dot(accel, self.d), 0.0)
+        else:
+            self.d = np.zeros(6)
+            self.sd = self.sdd = 0.0
+
+    def pose(self, s: float) -> np.ndarray:
+        """T(s), the reference pose at progress ``s`` (4×4)."""
+        T = np.eye(4)
+        f = s / self.L if self.L > 0.0 else 1.0
+        T[:3, 3] = self.p0 + f * self.dp
+        T[:3, :3] = so3_exp(f * self.r) @ self.R0 if f != 0.0 else self.R0
+        return T
+
+    @property
+    def remaining(self) -> float:
+        """L − s, the progress still to go."""
+        return self.L - self.s
+
+    def w_prime(self, w: np.ndarray) -> np.ndarray | None:
+        """dw/ds from the previous period's w (None until the progress has moved)."""
+        wp, ds = self.w_prev, self.s - self.s_prev
+        if wp is None or not abs(ds) > 1e-9:
+            return None
+        return (w - wp) / ds
+
+    def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0) -> float:
+        """One period of the progress toward rest at L within ``caps`` (the speed bound
+        multiplied by ``speed_scale`` ∈ [0, 1]); returns the mean progress speed over the
+        period, (s₁ − s₀)/dt, and updates (s, ṡ, s̈)."""
+        x = self.L - self.s
+        if not x > 0.0:  # at the end: the reference rests on the target
+            self.s, self.sd, self.sdd = self.L, 0.0, 0.0
+            return 0.0
+        prof = self._profile
+        if prof is None:
+            prof = self._profile = ProgressProfile(dt)
+        vmax = max(caps.speed * speed_scale, 1e-12)
+        amax = max(caps.accel, 1e-9)
+        jmax = max(caps.jerk, 1e-6)
+        # the stop is planned at the acceleration bound; where that bound shrank on the way
+        # (J changes) and the stop from the present state no longer fits at it, the plan
+        # brakes just as hard as needed to stop at L, up to twice the bound (the whole of
+        # amax at η = 1/2), instead of passing the target and coming back
+        # (a stop once planned harder keeps its level: planned again at the nominal bound, the
+        # time-optimal plan would brake later each period and ratchet up to the reserve)
+        brake = max(amax, self._brake) if self.sdd < 0.0 else amax
+        if self.sd > 0.0 and _stop(self.sd, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
+            lo, hi = brake, max(_URGENT * amax, brake)
+            if _stop(self.sd, self.sdd, hi, jmax) > x:
+                brake = hi
+            else:
+                for _ in range(12):
+                    mid = 0.5 * (lo + hi)
+                    lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax) > x else (lo, mid)
+                brake = hi
+        self._brake = brake
+        nxt = prof.step(x, self.sd, self.sdd, vmax=vmax, amax=amax, jmax=jmax, dt=dt, brake=brake)
+        if nxt is None:  # no jerk-limited motion found: brake at the acceleration bound
+            sd1 = max(self.sd - amax * dt, 0.0)
+            dx, sdd1 = 0.5 * (self.sd + sd1) * dt, (sd1 - self.sd) / dt
+        else:
+            dx, sd1, sdd1 = nxt
+        self.s_prev = self.s
+        if dx >= x:  # the end of the segment (a motion too fast to stop on it ends there)
+            dx = x
+            self.s, self.sd, self.sdd = self.L, 0.0, 0.0
+        else:
+            self.s, self.sd, self.sdd = self.s + dx, max(sd1, 0.0), sdd1
+        return dx / dt
