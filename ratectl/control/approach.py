@@ -31,6 +31,7 @@ from .smoothing import ProgressProfile
 
 __all__ = ["StraightApproach"]
 
+_PLANNED = 0.5  # a stop is planned at this share of the progress's acceleration bound
 _URGENT = 2.0  # a late stop brakes with up to this multiple of the bound (all of amax at η = 1/2)
 
 
@@ -136,22 +137,26 @@ class StraightApproach:
         vmax = max(caps.speed * speed_scale, 1e-12)
         amax = max(caps.accel, 1e-9)
         jmax = max(caps.jerk, 1e-6)
-        # the stop is planned at the acceleration bound; where that bound shrank on the way
-        # (J changes) and the stop from the present state no longer fits at it, the plan
-        # brakes just as hard as needed to stop at L, up to twice the bound (the whole of
-        # amax at η = 1/2), instead of passing the target and coming back
-        # (a stop once planned harder keeps its level: planned again at the nominal bound, the
-        # time-optimal plan would brake later each period and ratchet up to the reserve)
-        brake = max(amax, self._brake) if self.sdd < 0.0 else amax
+        # the stop is planned at half the acceleration bound (the bound can shrink on the way,
+        # as J changes: near a singularity by several times); where the stop from the present
+        # state no longer fits, the plan brakes just as hard as needed to stop at L, up to
+        # twice the bound with twice its jerk (the whole of amax and jmax at η = 1/2), instead
+        # of passing the target and coming back. A stop once planned harder keeps its level
+        # (planned again at the nominal level, the time-optimal plan would brake later each
+        # period and ratchet up to the reserve).
+        nominal = _PLANNED * amax
+        brake = max(nominal, self._brake) if self.sdd < 0.0 else nominal
         if self.sd > 0.0 and _stop(self.sd, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
             lo, hi = brake, max(_URGENT * amax, brake)
-            if _stop(self.sd, self.sdd, hi, jmax) > x:
+            if _stop(self.sd, self.sdd, hi, _URGENT * jmax) > x:
                 brake = hi
             else:
                 for _ in range(12):
                     mid = 0.5 * (lo + hi)
-                    lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax) > x else (lo, mid)
+                    lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax * mid / nominal) > x \
+                        else (lo, mid)
                 brake = hi
+            jmax = min(jmax * brake / nominal, _URGENT * jmax)
         self._brake = brake
         nxt = prof.step(x, self.sd, self.sdd, vmax=vmax, amax=amax, jmax=jmax, dt=dt, brake=brake)
         if nxt is None:  # no jerk-limited motion found: brake at the acceleration bound

@@ -302,6 +302,7 @@ class ResolvedRateController:
                                           stop_sigma=self.stop_sigma,
                                           watch_sigma=max(4.0 * self.stop_sigma, 1e-6))
         self._jogger = Jog()
+        self._adds_rows = bool(getattr(self.solver, "adds_rows", False))
         self._straight = StraightApproach(length=self.chain.characteristic_length)
         self._lag_max = _LAG_MAX
 
@@ -406,7 +407,7 @@ class ResolvedRateController:
             twist = np.concatenate([R @ twist[:3], R @ twist[3:]])
         servo = target is not None and qd_ff is None and (twist is None or not twist.any())
         cyc = _Cycle()
-        if servo:
+        if servo and not self._adds_rows:
             self._jogger.reset()
             halt = self._servo(cyc, q, dt, target)
         elif target is None and qd_ff is None and twist is not None:
@@ -640,6 +641,15 @@ class ResolvedRateController:
         cyc.ep, cyc.eo = pose_error_into(e, target, T)
         e_ref = np.zeros(6)
         pose_error_into(e_ref, ap.pose(ap.s), T)
+        lag = ap.weighted_norm(e_ref)
+        if lag > self._lag_max:
+            # the arm is held off its line (a solver's extra rows such as collision avoidance,
+            # or a robot that lags): a new straight segment from where it is, with its motion
+            ap.retarget(target, T, J @ self._qd, J @ self._qdd)
+            e_ref[:] = 0.0
+            lag = 0.0
+            cyc.reasons.append("held off the straight line by more than "
+                               f"{self._lag_max * 1e3:.3g} mm: a new line from where the arm is")
         caps = None
         w = None
         speed = 0.0
@@ -654,7 +664,6 @@ class ResolvedRateController:
             w = np.array(res_w.qd, dtype=float)
             caps = self._bounds.caps(q, w, dt=dt, sigma=self._sigma_for_watch(res_w),
                                        w_prime=ap.w_prime(w), solve_direction=self._sigma_ahead)
-            lag = ap.weighted_norm(e_ref)
             w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother
             speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max))
             if self.filter is not None:

@@ -48,6 +48,7 @@ __all__ = ["ProgressCaps", "ProgressLimits"]
 
 _TINY_W = 1e-12  # a joint with |w_i| below this does not move along the direction
 _LIMIT_MARGIN = 1e-3  # [rad or m] a progress stops this far inside a joint's position limit
+_VMAX_HEADROOM = 0.05  # the share of vmax a smoothed progress leaves to its filter
 _UNBOUNDED = 1e9  # an absent bound on the progress (Ruckig needs finite limits)
 
 
@@ -122,6 +123,10 @@ class ProgressLimits:
         self._jerk_limited = ((np.where(fin_j, share_a, 1.0), np.where(fin_j, self._share_j, 1e300))
                               if fin_j.any() else None)
         self._jerk_slack = np.where(np.isfinite(self.vmax), self.vmax, 0.0)  # one period at vmax
+        # a jerk-limited (smoothed) command keeps _VMAX_HEADROOM of vmax free: the feedback on
+        # top of the progress and a bound that shrinks along the way must not meet the filter
+        # at vmax with an acceleration it can no longer ramp out
+        self._vcap = self.vmax * (1.0 - _VMAX_HEADROOM) if self._jerk_limited is not None else self.vmax
 
     def name(self, i: int) -> str:
         """The chain's name of joint ``i`` (quoted), for reasons."""
@@ -146,7 +151,7 @@ class ProgressLimits:
             return ProgressCaps(speed=_UNBOUNDED, accel=_UNBOUNDED, jerk=_UNBOUNDED)
         inv = np.where(moving, 1.0 / np.where(moving, aw, 1.0), 0.0)
         # velocity (np.where before the product: an absent limit is inf, and inf·0 is NaN)
-        v_each = np.where(moving, np.where(moving, self.vmax, 0.0) * inv, np.inf)
+        v_each = np.where(moving, np.where(moving, self._vcap, 0.0) * inv, np.inf)
         jv = int(np.argmin(v_each))
         speed = float(v_each[jv])
         binding, joint = ("velocity", jv) if math.isfinite(speed) else ("", -1)

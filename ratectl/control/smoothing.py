@@ -73,7 +73,10 @@ class VelocityFilter:
         self.amax = _limit_array(amax, self.dof, "amax")
         self.jmax = _limit_array(jmax, self.dof, "jmax")
         self._vmax_list = self.vmax.tolist()
-        self._neg_vmax = -self.vmax
+        # targets within vmax·(1 − 1e-7): Ruckig's integration ends a few 1e-9 above a target
+        # velocity reached at the limit itself
+        self._vtop = self.vmax * (1.0 - 1e-7)
+        self._neg_vmax = -self._vtop
         self._otg = ruckig.Ruckig(self.dof, dt)
         self._inp = ruckig.InputParameter(self.dof)
         self._out = ruckig.OutputParameter(self.dof)
@@ -145,19 +148,15 @@ class VelocityFilter:
             self._per_dof = False
         inp.current_position = q.tolist() if type(q) is np.ndarray else list(q)
         # within ±vmax, less what the present acceleration still adds while it ramps down at
-        # jmax (a²/(2·jmax)): a target at vmax reached with a > 0 would pass it
+        # jmax (a²/(2·jmax)): a target at vmax met with a > 0 would pass it
         a_now = np.asarray(inp.current_acceleration)
         ramp = a_now * a_now / (2.0 * self.jmax)
         vt = np.minimum(np.maximum(qd_target, self._neg_vmax + np.where(a_now < 0.0, ramp, 0.0)),
-                        self.vmax - np.where(a_now > 0.0, ramp, 0.0))
+                        self._vtop - np.where(a_now > 0.0, ramp, 0.0))
         ta = None
         if qdd_target is not None:
             ta = np.minimum(np.maximum(qdd_target, -self.amax), self.amax)
-            # a target acceleration that pushes the target velocity outward must leave room to
-            # stop accelerating before vmax: |a| ≤ √(2·jmax·(vmax − |v|)) in that direction
-            # (without this a non-zero target acceleration at the velocity limit overran it)
-            room = np.sqrt(2.0 * self.jmax * np.maximum(self.vmax - np.abs(vt), 0.0))
-            ta = np.where(ta * vt > 0.0, np.sign(ta) * np.minimum(np.abs(ta), room), ta)
+            ta = self._within_room(vt, ta)
         own = None
         if independent is not None and any(independent):
             if all(independent):  # every joint on its own (a halt), to rest acceleration
@@ -172,8 +171,8 @@ class VelocityFilter:
                 # they do not stretch the synchronised motion
                 v0 = np.array(inp.current_velocity)
                 a0 = np.array(inp.current_acceleration)
-                vt = np.where(own, np.minimum(np.maximum(v0 + a0 * self.dt, self._neg_vmax), self.vmax), vt)
-                ta = np.where(own, a0, 0.0 if ta is None else ta)
+                vt = np.where(own, np.minimum(np.maximum(v0 + a0 * self.dt, self._neg_vmax), self._vtop), vt)
+                ta = self._within_room(vt, np.where(own, a0, 0.0 if ta is None else ta))
         inp.target_velocity = vt.tolist()
         if ta is not None:
             inp.target_acceleration = ta.tolist()
@@ -196,12 +195,12 @@ class VelocityFilter:
             # accelerations, and takes the next feasible one, far later): met each on its own,
             # the joints reach the reference, up to the few 1e-5 rad/s that a joint finishing
             # early moves at its target acceleration until the period ends
-            # (a joint near vmax gets no target acceleration: finishing early, it would pass vmax)
+            # (a joint that finishes early moves on at its target acceleration: that acceleration
+            # leaves room to stop before vmax from where the period then ends)
             if max(self._out.trajectory.independent_min_durations) <= self.dt * (1.0 + 1e-9):
-                if ta is not None:
-                    near_v = np.abs(vt) + np.abs(ta) * self.dt >= self.vmax
-                    if near_v.any():
-                        inp.target_acceleration = np.where(near_v, 0.0, ta).tolist()
+                if ta is not None:  # room for the early finish's extra speed |a|·dt too
+                    ahead = vt + ta * self.dt
+                    inp.target_acceleration = self._within_room(ahead, ta).tolist()
                 inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
                 self._per_dof = True
                 res = self._calculate()
@@ -216,6 +215,15 @@ class VelocityFilter:
         inp.current_velocity = v1.tolist()
         inp.current_acceleration = a1.tolist()
         return q1, v1, a1
+
+    def _within_room(self, vt: np.ndarray, ta: np.ndarray) -> np.ndarray:
+        """Target accelerations that keep the filter below vmax: |a| ≤ √(2·jmax·(vmax − |v|)).
+        Pushing outward, the motion must still stop accelerating before vmax; pulling back
+        (a target reached from below with a braking acceleration), the time-optimal motion
+        passes through a = 0 at |v| + a²/(2·jmax) before it brakes, which must not pass vmax
+        either (a non-zero target acceleration at the velocity limit overran it)."""
+        room = np.sqrt(2.0 * self.jmax * np.maximum(self.vmax - np.abs(vt), 0.0))
+        return np.sign(ta) * np.minimum(np.abs(ta), room)
 
     def _one_period_on_their_own(self, vt: np.ndarray, ta: np.ndarray | None, independent: np.ndarray):
         """The ``independent`` joints' own time-optimal motion to their target velocities at

@@ -182,7 +182,7 @@ def _run(chain, ref: PathReference, q, ctrl, T_end, *, dt, settle, tolerance, re
     path, plan = ref.path, ref.plan
     n_sched = len(plan) if plan is not None else int(math.ceil(path.duration / dt - 1e-9)) + 1
     n_settle = int(math.ceil(settle / dt))
-    Q, QD, QDD, ST, S, KINDS = [], [], [], [], [], []
+    Q, QD, QDD, ST, RS, S, KINDS = [], [], [], [], [], [], []
     pos_tol, ori_tol = tolerance
     k, halted_reason = 0, ""
     kind, kind_at, kind_every = None, -(10**9), max(1, round(0.02 / dt))
@@ -197,6 +197,7 @@ def _run(chain, ref: PathReference, q, ctrl, T_end, *, dt, settle, tolerance, re
         QD.append(cmd.qd)
         QDD.append(cmd.qdd)
         ST.append(cmd.status)
+        RS.append(cmd.reason)
         S.append(s)
         if record_kinds and cmd.status in ("damped", "singular"):
             # rc.analyze costs about a millisecond: within a stretch of damped/singular steps
@@ -221,10 +222,11 @@ def _run(chain, ref: PathReference, q, ctrl, T_end, *, dt, settle, tolerance, re
     QD.append(QD[-1] if ctrl.filter is None else ctrl.filter.velocity)
     QDD.append(np.zeros(chain.dof) if ctrl.filter is None else ctrl.filter.acceleration)
     ST.append(ST[-1])
+    RS.append(RS[-1])
     S.append(S[-1])
     KINDS.append(KINDS[-1])
     return {"q": np.array(Q), "qd": np.array(QD), "qdd": np.array(QDD), "statuses": tuple(ST),
-            "s": np.array(S), "kinds": tuple(KINDS), "halted": halted_reason}
+            "reasons": tuple(RS), "s": np.array(S), "kinds": tuple(KINDS), "halted": halted_reason}
 
 
 def _path_errors(chain, path, Q, S):
@@ -298,7 +300,7 @@ def _evaluate(chain, path, rec, plan, gov, T_end, info, *, dt, settle, tolerance
                      "stop_orientation_error": end_o})
     return Execution(t=t, q=Q, qd=rec["qd"], qdd=rec["qdd"], poses=poses, position_error=perr,
                      orientation_error=oerr, tracking_error=terr, statuses=rec["statuses"],
-                     kinds=rec["kinds"],
+                     reasons=rec["reasons"], kinds=rec["kinds"],
                      sigma_min=sig, s=rec["s"], nominal_duration=nominal, duration=duration,
                      completed=completed, message=message,
                      source="follow" + (" (governor)" if plan is not None else " (time law)"),
@@ -352,6 +354,7 @@ def _approach(chain, path, q0, dt) -> Execution:
     t, q, qd, qdd = traj.sample(dt)
     q[-1] = q_goal
     return Execution(t=t, q=q, qd=qd, qdd=qdd, poses=chain.fk(q), statuses=("approach",) * len(t),
+                     reasons=("joint move to the path start",) * len(t),
                      nominal_duration=traj.duration, duration=float(t[-1]), completed=True,
                      message=f"joint move to the path start in {traj.duration:.3f} s", source="approach",
                      chain_name=chain.name, joint_names=tuple(chain.joint_names),

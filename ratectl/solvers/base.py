@@ -379,6 +379,14 @@ class Solver:
     """
 
     method = "base"
+    #: The contract a controller reads (a solver that is not a `Solver` may set the same
+    #: attributes): ``enforces_limits`` — ``solve`` bounds q̇ by the joint position, velocity
+    #: and acceleration limits itself (the QP), so the controller does not limit it again;
+    #: ``adds_rows`` — it adds constraint rows of its own (e.g. collision avoidance) that may
+    #: hold the tool off a straight line, so a servo follows the proportional law ξ = K·e
+    #: and lets the solver bend it around them.
+    enforces_limits = False
+    adds_rows = False
 
     def __init__(self, *, velocity_policy: str | None = "scale", task_weights: ArrayLike | None = None,
                  joint_weights: ArrayLike | None = None) -> None:

@@ -130,6 +130,8 @@ class MinkLimitedSolver:
     """
 
     method = "qp+mink"
+    enforces_limits = True  # the wrapped QP's bounds, and the mink rows on top
+    adds_rows = True
 
     def __init__(self, kinematics: MinkKinematics, limits: Sequence[Any], *, solver: QP | None = None,
                  drop_acceleration_on_conflict: bool = True) -> None:
