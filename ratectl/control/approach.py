@@ -69,6 +69,7 @@ class StraightApproach:
         self.w_prev: np.ndarray | None = None
         self.s_prev = 0.0
         self._brake = 0.0
+        self.blocked = False
 
     def weighted_dot(self, a: np.ndarray, b: np.ndarray) -> float:
         """⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω for two twists (6,)."""
@@ -127,36 +128,43 @@ class StraightApproach:
         """One period of the progress toward rest at L within ``caps`` (the speed bound
         multiplied by ``speed_scale`` ∈ [0, 1]); returns the mean progress speed over the
         period, (s₁ − s₀)/dt, and updates (s, ṡ, s̈)."""
-        x = self.L - self.s
-        if not x > 0.0:  # at the end: the reference rests on the target
+        end = self.L - self.s
+        if not end > 0.0:  # at the end: the reference rests on the target
             self.s, self.sd, self.sdd = self.L, 0.0, 0.0
+            return 0.0
+        # the stop is planned at the target, or before a block ahead (a joint limit, the
+        # σ_min at which a singularity stops the motion): at rest there, the line is blocked
+        x = min(end, caps.room)
+        self.blocked = x < end
+        if not x > 0.0 and self.sd == 0.0:
+            self.sdd = 0.0
             return 0.0
         prof = self._profile
         if prof is None:
             prof = self._profile = ProgressProfile(dt)
-        vmax = max(caps.speed * speed_scale, 1e-12)
+        vmax = max(caps.free_speed * speed_scale, 1e-12)
         amax = max(caps.accel, 1e-9)
         jmax = max(caps.jerk, 1e-6)
         # the stop is planned at half the acceleration bound (the bound can shrink on the way,
         # as J changes: near a singularity by several times); where the stop from the present
         # state no longer fits, the plan brakes just as hard as needed to stop at L, up to
-        # twice the bound with twice its jerk (the whole of amax and jmax at η = 1/2), instead
+        # twice the bound (the whole of amax at η = 1/2; the jerk stays within its share), instead
         # of passing the target and coming back. A stop once planned harder keeps its level
         # (planned again at the nominal level, the time-optimal plan would brake later each
         # period and ratchet up to the reserve).
         nominal = _PLANNED * amax
         brake = max(nominal, self._brake) if self.sdd < 0.0 else nominal
+        if self.sd > vmax:  # above a speed bound: its braking law assumes the whole bound
+            brake = max(brake, amax)
         if self.sd > 0.0 and _stop(self.sd, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
             lo, hi = brake, max(_URGENT * amax, brake)
-            if _stop(self.sd, self.sdd, hi, _URGENT * jmax) > x:
+            if _stop(self.sd, self.sdd, hi, jmax) > x:
                 brake = hi
             else:
                 for _ in range(12):
                     mid = 0.5 * (lo + hi)
-                    lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax * mid / nominal) > x \
-                        else (lo, mid)
+                    lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax) > x else (lo, mid)
                 brake = hi
-            jmax = min(jmax * brake / nominal, _URGENT * jmax)
         self._brake = brake
         nxt = prof.step(x, self.sd, self.sdd, vmax=vmax, amax=amax, jmax=jmax, dt=dt, brake=brake)
         if nxt is None:  # no jerk-limited motion found: brake at the acceleration bound
@@ -165,9 +173,12 @@ class StraightApproach:
         else:
             dx, sd1, sdd1 = nxt
         self.s_prev = self.s
-        if dx >= x:  # the end of the segment (a motion too fast to stop on it ends there)
-            dx = x
+        if dx >= end:  # the end of the segment (a motion too fast to stop on it ends there)
+            dx = end
             self.s, self.sd, self.sdd = self.L, 0.0, 0.0
+        elif dx >= x and self.blocked:  # at the block: rest there
+            dx = max(x, 0.0)
+            self.s, self.sd, self.sdd = self.s + dx, 0.0, 0.0
         else:
             self.s, self.sd, self.sdd = self.s + dx, max(sd1, 0.0), sdd1
         return dx / dt

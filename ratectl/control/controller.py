@@ -680,8 +680,17 @@ class ResolvedRateController:
             cyc.qdd_ff = w * ap.sdd if w_rate is None else w * ap.sdd + w_rate * ap.sd
             cyc.approach_qd = cyc.qd
         if caps is not None:
-            self._progress_flags(cyc, q, caps, ap.sd > 0.0 or speed > 0.0, ap.sd >= caps.speed * (1.0 - 1e-9))
-            cyc.blocked = caps.reason if (caps.blocked_by and ap.sd == 0.0) else ""
+            moving = ap.sd > 0.0 or speed > 0.0
+            if ap.blocked:  # the stop is planned before a block (a limit, a singularity)
+                at_block = not moving and caps.room <= 1e-9
+                caps.binding, caps.reason = caps.room_by, caps.room_reason
+                caps.blocked_by = caps.room_by if at_block else ""
+                self._progress_flags(cyc, q, caps, moving, True)
+                cyc.blocked = caps.room_reason if at_block else ""
+            else:
+                if caps.binding in ("position", "singularity"):
+                    caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
+                self._progress_flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
             cyc.approach = ap.s / ap.L
         return None
 

@@ -50,6 +50,7 @@ _TINY_W = 1e-12  # a joint with |w_i| below this does not move along the directi
 _LIMIT_MARGIN = 1e-3  # [rad or m] a progress stops this far inside a joint's position limit
 _VMAX_HEADROOM = 0.05  # the share of vmax a smoothed progress leaves to its filter
 _UNBOUNDED = 1e9  # an absent bound on the progress (Ruckig needs finite limits)
+_JERK_BIG = 1e12  # an unbounded progress jerk in the jerk-limited braking formula
 
 
 @dataclass(slots=True)
@@ -67,6 +68,13 @@ class ProgressCaps:
         sigma: σ_min(J) at q (NaN when not computed: far from every singularity).
         singular_speed: the singularity bound on ṡ (inf when it does not bind).
         reason: a sentence for the command ("" when nothing binds).
+        free_speed: the bound on ṡ from vmax and the curvature alone, without the braking
+            toward a position limit or a singularity (those are ``room``).
+        room: the progress still free ahead of the nearest block, a position limit or the
+            σ_min of ``stop_sigma`` (first-order estimates, inf when none): a motion that
+            plans its stop (the approach) plans it there instead of meeting ``speed``.
+        room_by, room_joint, room_reason: what blocks there ("position" or "singularity"),
+            the joint of a position limit (or -1), and a sentence for the command.
     """
 
     speed: float
@@ -78,6 +86,11 @@ class ProgressCaps:
     sigma: float = math.nan
     singular_speed: float = math.inf
     reason: str = ""
+    free_speed: float = math.inf
+    room: float = math.inf
+    room_by: str = ""
+    room_joint: int = -1
+    room_reason: str = ""
 
 
 class ProgressLimits:
@@ -166,8 +179,10 @@ class ProgressLimits:
                 jc = int(np.argmin(c_each))
                 if c_each[jc] < speed:
                     speed, binding, joint = float(c_each[jc]), "curvature", jc
+        free_speed = speed
         blocked_by = ""
         reason = ""
+        p_room, p_joint = math.inf, -1
         # position limits: joints moving toward a limit brake in time at the share of amax
         if self._has_p:
             # (stopping _LIMIT_MARGIN short: the feedback that holds the arm on the stopped
@@ -181,6 +196,9 @@ class ProgressLimits:
                 b = np.minimum(b, braking_speed(np.maximum(room_f - self._jerk_slack * dt, 0.0), share_a,
                                                 share_j))
             p_each = np.where(finite, np.maximum(b, 0.0) * inv, np.inf)
+            r_each = np.where(finite, np.maximum(room_f, 0.0) * inv, np.inf)
+            jr = int(np.argmin(r_each))
+            p_room, p_joint = float(r_each[jr]), jr
             jp = int(np.argmin(p_each))
             if p_each[jp] < speed:
                 speed, binding, joint = float(p_each[jp]), "position", jp
@@ -191,7 +209,13 @@ class ProgressLimits:
                 else:
                     reason = f"joint {self.name(jp)} braking toward its {side} limit"
         caps = ProgressCaps(speed=speed, accel=min(accel, _UNBOUNDED), jerk=min(jerk, _UNBOUNDED),
-                            binding=binding, blocked_by=blocked_by, joint=joint, reason=reason)
+                            binding=binding, blocked_by=blocked_by, joint=joint, reason=reason,
+                            free_speed=free_speed)
+        if self._has_p and math.isfinite(p_room):
+            side = "upper" if w[p_joint] > 0.0 else "lower"
+            caps.room, caps.room_by, caps.room_joint = p_room, "position", p_joint
+            caps.room_reason = (f"joint {self.name(p_joint)} is at its {side} limit" if p_room <= 0.0
+                                else f"joint {self.name(p_joint)} braking toward its {side} limit")
         if solve_direction is not None and sigma is not None and sigma < self.watch_sigma:
             self._singularity(caps, q, w, sigma, solve_direction)
         return caps
@@ -208,7 +232,14 @@ class ProgressLimits:
         if not slope < 0.0:
             return  # moving away from the singularity (or along it): never bounded
         room = (sigma - self.stop_sigma) / (-2.0 * slope)
-        bound = math.sqrt(2.0 * caps.accel * room) if room > 0.0 else 0.0
+        if max(room, 0.0) < caps.room:
+            caps.room, caps.room_by, caps.room_joint = max(room, 0.0), "singularity", -1
+            caps.room_reason = (f"stopped before a singularity: σ_min = {sigma:.3g} ≤ {self.stop_sigma:.3g} "
+                                "and the commanded direction lowers it further" if room <= 0.0 else
+                                f"approaching a singularity (σ_min = {sigma:.3g}, stops at "
+                                f"{self.stop_sigma:.3g}): slowed along the commanded direction")
+        # the jerk-limited stop within that room at the acceleration bound
+        bound = float(braking_speed(room, caps.accel, min(caps.jerk, _JERK_BIG))) if room > 0.0 else 0.0
         caps.singular_speed = bound
         if bound < caps.speed:
             caps.speed = bound

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 import ratectl as rc
-from ratectl.control.goal import JointGoal
 from ratectl.spatial import pose_error
 
 from . import harness
@@ -158,30 +157,6 @@ def test_qp_with_smoothing_reaches_the_readme_step():
             reached_at = (k + 1) * 1e-3
             break
     assert reached_at is not None, cmd
-
-
-def test_joint_goal_descends_and_stays_inside_the_range():
-    """`JointGoal`: every accepted step lowers the pose error; the goal stays inside the
-    joint range by its margin; an unreachable target settles as a best effort."""
-    chain = rc.robots.panda()
-    q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
-    T = chain.fk(q0)
-    T[:3, 3] += [0.4, 0.2, 0.0]
-    goal = JointGoal(chain, chain.lower, chain.upper, position_tolerance=1e-4, orientation_tolerance=1e-3)
-    errors = []
-    for _ in range(100):
-        g = goal.update(q0, T, steps=5)
-        errors.append(math.hypot(goal.position_error, goal.orientation_error))
-        assert np.all(g >= chain.lower) and np.all(g <= chain.upper)
-    assert np.all(np.diff(errors) <= 1e-15)
-    assert goal.settled and goal.best_effort and not goal.reached
-    # a reachable target of a 6-joint arm: reached, on the start's branch
-    chain = rc.robots.ur5e()
-    q0 = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
-    q1 = q0 + 0.3
-    goal = JointGoal(chain, chain.lower, chain.upper, position_tolerance=1e-4, orientation_tolerance=1e-3)
-    g = goal.update(q0, chain.fk(q1), steps=100)
-    assert goal.reached and goal.settled and np.max(np.abs(g - q1)) < 1e-6
 
 
 def _ur5e_readme_step():
