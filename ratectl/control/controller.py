@@ -302,7 +302,11 @@ class ResolvedRateController:
                                           stop_sigma=self.stop_sigma,
                                           watch_sigma=max(4.0 * self.stop_sigma, 1e-6))
         self._jogger = Jog()
-        self._adds_rows = bool(getattr(self.solver, "adds_rows", False))
+        # the straight approach, not with a solver that bends the path around rows of its own;
+        # an arm of fewer than 6 joints cannot follow a line in 6-D: its approach starts anew
+        # from the measured pose every period (straight toward the target from where it is)
+        self._straight_servo = not getattr(self.solver, "adds_rows", False)
+        self._pursuit = self.chain.dof < 6
         self._straight = StraightApproach(length=self.chain.characteristic_length)
         self._lag_max = _LAG_MAX
 
@@ -335,6 +339,7 @@ class ResolvedRateController:
         self._straight.reset()
         self._jogger.reset()
         self._singular_kind: str | None = None
+        self._unreachable: np.ndarray | None = None  # the target last found out of reach
         self._dt_last = None
         self.time = 0.0
         if self.filter is not None:
@@ -407,7 +412,7 @@ class ResolvedRateController:
             twist = np.concatenate([R @ twist[:3], R @ twist[3:]])
         servo = target is not None and qd_ff is None and (twist is None or not twist.any())
         cyc = _Cycle()
-        if servo and not self._adds_rows:
+        if servo and self._straight_servo:
             self._jogger.reset()
             halt = self._servo(cyc, q, dt, target)
         elif target is None and qd_ff is None and twist is not None:
@@ -425,10 +430,11 @@ class ResolvedRateController:
         if halt is not None:
             return halt
         if servo:
-            self._arrival(cyc)
+            assert target is not None
+            self._arrival(cyc, target)
         return self._command(cyc, q, dt)
 
-    def _arrival(self, cyc: _Cycle) -> None:
+    def _arrival(self, cyc: _Cycle, target: np.ndarray) -> None:
         """``target-reached`` or ``target-unreachable`` (first in the flags, so it is the
         status). Reached: within the tolerances with the command at rest, its tool twist
         J q̇ within K·tolerance (linear and angular; what the proportional law asks at the
@@ -452,13 +458,17 @@ class ResolvedRateController:
                                f"which is blocked: {cyc.blocked}")
             return
         # stopped short: below 1 % of that, now and one time constant ahead (an arm that
-        # creeps toward a singular target, damped, is still on its way)
-        vtol *= 0.01
-        wtol *= 0.01
+        # creeps toward a singular target, damped, is still on its way); once said for this
+        # target, below 10 % (the last settling does not flicker back to "regular")
+        said = self._unreachable is not None and np.array_equal(target, self._unreachable)
+        vtol *= 0.1 if said else 0.01
+        wtol *= 0.1 if said else 0.01
         ahead = cyc.J @ (cyc.qd + cyc.qdd * self._inv_kmax)
         if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol
                 and math.hypot(*ahead[:3].tolist()) <= vtol and math.hypot(*ahead[3:].tolist()) <= wtol):
             return
+        if not said:
+            self._unreachable = target.copy()
         cyc.flags.insert(0, "target-unreachable")
         cyc.reasons.insert(0, f"stopped at a best effort {cyc.ep * 1e3:.3g} mm / "
                            f"{math.degrees(cyc.eo):.3g}° from the target: no motion within the limits "
@@ -632,9 +642,11 @@ class ResolvedRateController:
         cyc.J = J
         cyc.target = True
         ap = self._straight
-        if ap.target is None or not np.array_equal(target, ap.target):
+        if ap.target is None or self._pursuit or not np.array_equal(target, ap.target):
             if ap.target is None:  # a first target: from the measured pose and the arm's motion
                 ap.retarget(target, T, J @ self._qd, J @ self._qdd)
+            elif self._pursuit:  # from the measured pose, the progress's own motion carried on
+                ap.retarget(target, T, ap.sd * ap.d, ap.sdd * ap.d)
             else:  # a new target: from the reference, which goes on without a jump
                 ap.retarget(target, ap.pose(ap.s), ap.sd * ap.d, ap.sdd * ap.d)
         e = cyc.e = np.zeros(6)
@@ -663,7 +675,8 @@ class ResolvedRateController:
                 return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
             w = np.array(res_w.qd, dtype=float)
             caps = self._bounds.caps(q, w, dt=dt, sigma=self._sigma_for_watch(res_w),
-                                       w_prime=ap.w_prime(w), solve_direction=self._sigma_ahead)
+                                       w_prime=ap.w_prime(w),
+                                     exact=lambda q2: self._exact_direction(q2, ap.d))
             w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother
             speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max))
             if self.filter is not None:
@@ -701,10 +714,15 @@ class ResolvedRateController:
         from the result. ``q`` and ``dt`` go to solvers that need them (extra rows)."""
         return self.solver.solve(J, d, q=q, dt=dt)
 
-    def _sigma_ahead(self, q2: np.ndarray) -> tuple[None, float]:
-        """σ_min(J) at another configuration (the singularity look-ahead of `ProgressLimits`)."""
-        s = np.linalg.svd(self.chain.jacobian(q2), compute_uv=False)
-        return None, float(s[-1]) if s.shape[0] == 6 else 0.0
+    def _exact_direction(self, q: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, float]:
+        """(w, σ_min) at ``q``: the minimum-norm joint velocity J⁺d of the direction ``d`` by
+        the exact (undamped) pseudo-inverse, and σ_min(J), from one SVD (the singularity
+        look-ahead of `ProgressLimits`: does the direction need joint speeds ∝ 1/σ_min?)."""
+        U, S, Vt = np.linalg.svd(self.chain.jacobian(q), full_matrices=False)
+        smin = float(S[-1]) if S.shape[0] == 6 else 0.0
+        keep = S > S[0] * 1e-12
+        w = Vt[keep].T @ ((U[:, keep].T @ d) / S[keep])
+        return w, smin
 
     def _sigma_for_watch(self, res: Any) -> float | None:
         """σ_min of a direction solve when it may be below the watch threshold, else None
@@ -744,7 +762,7 @@ class ResolvedRateController:
         wp = jog.w_prev
         w_prime = (w - wp) / (jog.c * dt) if (wp is not None and jog.c > 0.0) else None
         caps = self._bounds.caps(q, w, dt=dt, sigma=self._sigma_for_watch(res_w), w_prime=w_prime,
-                                   solve_direction=self._sigma_ahead)
+                                   exact=lambda q2: self._exact_direction(q2, twist))
         c_prev = jog.c
         c = jog.advance(caps, dt)
         jog.w_prev = w

@@ -47,8 +47,10 @@ if TYPE_CHECKING:
 __all__ = ["ProgressCaps", "ProgressLimits"]
 
 _TINY_W = 1e-12  # a joint with |w_i| below this does not move along the direction
-_LIMIT_MARGIN = 1e-3  # [rad or m] a progress stops this far inside a joint's position limit
+_LIMIT_MARGIN = 0.0  # [rad or m] a progress stops this far inside a joint's position limit
 _VMAX_HEADROOM = 0.05  # the share of vmax a smoothed progress leaves to its filter
+_LOST = 0.5  # elasticity of |J⁺d| against 1/σ_min above which a direction is being lost
+_SIGMA_NOISE = 1e-10  # a change of σ_min over the look-ahead step below this is rounding
 _UNBOUNDED = 1e9  # an absent bound on the progress (Ruckig needs finite limits)
 _JERK_BIG = 1e12  # an unbounded progress jerk in the jerk-limited braking formula
 
@@ -146,7 +148,7 @@ class ProgressLimits:
         return repr(self.names[i])
 
     def caps(self, q: np.ndarray, w: np.ndarray, *, dt: float, sigma: float | None = None,
-             w_prime: np.ndarray | None = None, solve_direction=None) -> ProgressCaps:
+             w_prime: np.ndarray | None = None, exact=None) -> ProgressCaps:
         """The bounds on ṡ, s̈, s⃛ at ``q`` for motion ``q̇ = ṡ w`` (ṡ ≥ 0).
 
         Args:
@@ -155,8 +157,9 @@ class ProgressLimits:
             dt: the coming period [s].
             sigma: σ_min(J(q)) if known (else computed when needed).
             w_prime: dw/ds (n,) if known (the curvature term), else None.
-            solve_direction: ``f(q) -> (w, σ_min)`` at another q, for the singularity look-ahead
-                (None: no singularity bound).
+            exact: ``f(q) -> (w, σ_min)``: the direction's exact minimum-norm joint velocity
+                J⁺d and σ_min(J) at any q, for the singularity look-ahead (None: no
+                singularity bound).
         """
         aw = np.abs(w)
         moving = aw > _TINY_W
@@ -216,21 +219,31 @@ class ProgressLimits:
             caps.room, caps.room_by, caps.room_joint = p_room, "position", p_joint
             caps.room_reason = (f"joint {self.name(p_joint)} is at its {side} limit" if p_room <= 0.0
                                 else f"joint {self.name(p_joint)} braking toward its {side} limit")
-        if solve_direction is not None and sigma is not None and sigma < self.watch_sigma:
-            self._singularity(caps, q, w, sigma, solve_direction)
+        if exact is not None and sigma is not None and sigma < self.watch_sigma:
+            self._singularity(caps, q, w, exact)
         return caps
 
-    def _singularity(self, caps: ProgressCaps, q, w, sigma: float, solve_direction) -> None:
-        """The singularity bound (see the module docstring) applied to ``caps``."""
+    def _singularity(self, caps: ProgressCaps, q, w, exact) -> None:
+        """The singularity bound (see the module docstring) applied to ``caps``: only for a
+        direction that is being lost, whose exact joint speed |J⁺d| grows like 1/σ_min as
+        σ_min falls (its elasticity d ln|J⁺d| / d ln(1/σ_min) above 1/2); a direction that
+        stays in the range of J as the arm reaches the singular configuration (a target on
+        the smooth branch, q5 → 0 on a UR wrist) needs bounded joint speeds and is not
+        blocked (vmax bounds it as everywhere)."""
+        w_here, sigma = exact(q)
         caps.sigma = sigma
         norm = float(np.sqrt(w @ w))
         if not norm > 0.0:
             return
         ds = 1e-4 / norm  # a 1e-4 rad (or m) joint step along w
-        _, sigma_ahead = solve_direction(q + w * ds)
-        slope = (sigma_ahead - sigma) / ds  # dσ_min/ds
-        if not slope < 0.0:
-            return  # moving away from the singularity (or along it): never bounded
+        w_ahead, sigma_ahead = exact(q + w * ds)
+        drop = sigma - sigma_ahead
+        if not drop > _SIGMA_NOISE * (1.0 + sigma):
+            return  # moving away from the singularity, or along it (σ_min unchanged): never bounded
+        slope = -drop / ds  # dσ_min/ds
+        n_here, n_ahead = float(np.sqrt(w_here @ w_here)), float(np.sqrt(w_ahead @ w_ahead))
+        if n_here > 0.0 and (n_ahead - n_here) / n_here < _LOST * drop / max(sigma, 1e-300):
+            return  # the direction keeps bounded joint speeds into the singularity: not lost
         room = (sigma - self.stop_sigma) / (-2.0 * slope)
         if max(room, 0.0) < caps.room:
             caps.room, caps.room_by, caps.room_joint = max(room, 0.0), "singularity", -1

@@ -225,6 +225,7 @@ def test_a_target_with_a_joint_on_its_limit_is_reached(smoothing):
     chain = rc.robots.puma560()
     q1 = np.clip((chain.lower + chain.upper) / 2, -1, 1) + 0.1
     q1[0] = chain.upper[0]
+    q1[4] = 0.8  # the wrist away from its singularity (at 0.1 rad the straight line stops before it)
     q0 = q1.copy()
     q0[0] -= 0.3
     ctrl = rc.ResolvedRateController(chain, smoothing=smoothing)
