@@ -29,7 +29,7 @@ from ..spatial import so3_exp, so3_log
 from .progress import ProgressCaps
 from .smoothing import ProgressProfile
 
-__all__ = ["StraightApproach"]
+__all__ = ["Progress", "StraightApproach", "JointLine"]
 
 _PLANNED = 0.5  # a stop is planned at this share of the progress's acceleration bound
 _URGENT = 2.0  # a late stop brakes with up to this multiple of the bound (all of amax at η = 1/2)
@@ -40,89 +40,23 @@ def _stop(v: float, a: float, brake: float, jerk: float) -> float:
     return float(stopping_distance(v, a, brake, jerk, exact_when_braking=True))
 
 
-class StraightApproach:
-    """The reference of the servo's approach: a straight segment and the progress along it
-    (see the module docstring). Owns the segment and the progress state.
+class Progress:
+    """A progress s ∈ [0, L] toward rest at L, one jerk-limited period at a time within the
+    bounds of `ProgressLimits` (see `advance`). Owns (s, ṡ, s̈)."""
 
-    Args:
-        length: ℓ [m], the length that weighs rotation against translation in the progress.
-    """
-
-    def __init__(self, *, length: float) -> None:
-        self.length = float(length)
-        self._l2 = self.length * self.length
+    def __init__(self) -> None:
         self._profile: ProgressProfile | None = None
-        self.reset()
-
-    def reset(self) -> None:
-        """Forget the segment and the progress (the next target starts a new approach)."""
-        self.target: np.ndarray | None = None
-        self.p0 = np.zeros(3)
-        self.R0 = np.eye(3)
-        self.dp = np.zeros(3)
-        self.r = np.zeros(3)
         self.L = 0.0
-        self.d = np.zeros(6)
+        self.restart()
+
+    def restart(self, sd: float = 0.0, sdd: float = 0.0) -> None:
+        """Progress 0 with speed ``sd`` and acceleration ``sdd``."""
         self.s = 0.0
-        self.sd = 0.0
-        self.sdd = 0.0
-        self.w_prev: np.ndarray | None = None
+        self.sd = sd
+        self.sdd = sdd
         self.s_prev = 0.0
         self._brake = 0.0
         self.blocked = False
-
-    def weighted_dot(self, a: np.ndarray, b: np.ndarray) -> float:
-        """⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω for two twists (6,)."""
-        return float(a[:3] @ b[:3] + self._l2 * (a[3:] @ b[3:]))
-
-    def weighted_norm(self, e: np.ndarray) -> float:
-        """‖e‖_W for a twist or a pose error (6,)."""
-        return math.sqrt(max(self.weighted_dot(e, e), 0.0))
-
-    def retarget(self, target: np.ndarray, T_from: np.ndarray, twist: np.ndarray,
-                 accel: np.ndarray) -> None:
-        """A new segment from ``T_from`` to ``target`` (4×4 poses); the progress starts at 0
-        with the speed and acceleration of the motion ``twist``, ``accel`` (6,) projected on
-        the new direction (never backwards)."""
-        self.target = target.copy()
-        self.p0 = T_from[:3, 3].copy()
-        self.R0 = T_from[:3, :3].copy()
-        self.dp = target[:3, 3] - self.p0
-        self.r = so3_log(target[:3, :3] @ self.R0.T)
-        L = math.sqrt(float(self.dp @ self.dp) + self._l2 * float(self.r @ self.r))
-        self.L = L
-        self.s = 0.0
-        self.w_prev = None
-        self.s_prev = 0.0
-        self._brake = 0.0
-        if L > 0.0:
-            self.d = np.concatenate([self.dp, self.r]) / L
-            self.sd = max(self.weighted_dot(twist, self.d), 0.0)
-            self.sdd = self.weighted_dot(accel, self.d) if self.sd > 0.0 else max(
-                self.weighted_dot(accel, self.d), 0.0)
-        else:
-            self.d = np.zeros(6)
-            self.sd = self.sdd = 0.0
-
-    def pose(self, s: float) -> np.ndarray:
-        """T(s), the reference pose at progress ``s`` (4×4)."""
-        T = np.eye(4)
-        f = s / self.L if self.L > 0.0 else 1.0
-        T[:3, 3] = self.p0 + f * self.dp
-        T[:3, :3] = so3_exp(f * self.r) @ self.R0 if f != 0.0 else self.R0
-        return T
-
-    @property
-    def remaining(self) -> float:
-        """L − s, the progress still to go."""
-        return self.L - self.s
-
-    def w_prime(self, w: np.ndarray) -> np.ndarray | None:
-        """dw/ds from the previous period's w (None until the progress has moved)."""
-        wp, ds = self.w_prev, self.s - self.s_prev
-        if wp is None or not abs(ds) > 1e-9:
-            return None
-        return (w - wp) / ds
 
     def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0) -> float:
         """One period of the progress toward rest at L within ``caps`` (the speed bound
@@ -182,3 +116,112 @@ class StraightApproach:
         else:
             self.s, self.sd, self.sdd = self.s + dx, max(sd1, 0.0), sdd1
         return dx / dt
+
+
+class StraightApproach(Progress):
+    """The reference of the servo's approach: a straight segment and the progress along it
+    (see the module docstring). Owns the segment and the progress state.
+
+    Args:
+        length: ℓ [m], the length that weighs rotation against translation in the progress.
+    """
+
+    def __init__(self, *, length: float) -> None:
+        super().__init__()
+        self.length = float(length)
+        self._l2 = self.length * self.length
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the segment and the progress (the next target starts a new approach)."""
+        self.target: np.ndarray | None = None
+        self.p0 = np.zeros(3)
+        self.R0 = np.eye(3)
+        self.dp = np.zeros(3)
+        self.r = np.zeros(3)
+        self.L = 0.0
+        self.d = np.zeros(6)
+        self.w_prev: np.ndarray | None = None
+        self.restart()
+
+    def weighted_dot(self, a: np.ndarray, b: np.ndarray) -> float:
+        """⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω for two twists (6,)."""
+        return float(a[:3] @ b[:3] + self._l2 * (a[3:] @ b[3:]))
+
+    def weighted_norm(self, e: np.ndarray) -> float:
+        """‖e‖_W for a twist or a pose error (6,)."""
+        return math.sqrt(max(self.weighted_dot(e, e), 0.0))
+
+    def retarget(self, target: np.ndarray, T_from: np.ndarray, twist: np.ndarray,
+                 accel: np.ndarray) -> None:
+        """A new segment from ``T_from`` to ``target`` (4×4 poses); the progress starts at 0
+        with the speed and acceleration of the motion ``twist``, ``accel`` (6,) projected on
+        the new direction (never backwards)."""
+        self.target = target.copy()
+        self.p0 = T_from[:3, 3].copy()
+        self.R0 = T_from[:3, :3].copy()
+        self.dp = target[:3, 3] - self.p0
+        self.r = so3_log(target[:3, :3] @ self.R0.T)
+        L = math.sqrt(float(self.dp @ self.dp) + self._l2 * float(self.r @ self.r))
+        self.L = L
+        self.w_prev = None
+        if L > 0.0:
+            self.d = np.concatenate([self.dp, self.r]) / L
+            sd = max(self.weighted_dot(twist, self.d), 0.0)
+            a = self.weighted_dot(accel, self.d)
+            self.restart(sd, a if sd > 0.0 else max(a, 0.0))
+        else:
+            self.d = np.zeros(6)
+            self.restart()
+
+    def pose(self, s: float) -> np.ndarray:
+        """T(s), the reference pose at progress ``s`` (4×4)."""
+        T = np.eye(4)
+        f = s / self.L if self.L > 0.0 else 1.0
+        T[:3, 3] = self.p0 + f * self.dp
+        T[:3, :3] = so3_exp(f * self.r) @ self.R0 if f != 0.0 else self.R0
+        return T
+
+    @property
+    def remaining(self) -> float:
+        """L − s, the progress still to go."""
+        return self.L - self.s
+
+    def w_prime(self, w: np.ndarray) -> np.ndarray | None:
+        """dw/ds from the previous period's w (None until the progress has moved)."""
+        wp, ds = self.w_prev, self.s - self.s_prev
+        if wp is None or not abs(ds) > 1e-9:
+            return None
+        return (w - wp) / ds
+
+
+class JointLine(Progress):
+    """The servo's alternative where its straight line is blocked (a joint limit or a
+    singularity on the way): a straight line in joint space from where the arm is to a
+    verified inverse-kinematics solution of the target, q(s) = q₀ + s·u, u = (q_g − q₀)/L,
+    L = ‖q_g − q₀‖ [rad or m], with the same progress within the joint limits (w = u)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.reset()
+
+    def reset(self) -> None:
+        self.target: np.ndarray | None = None
+        self.q0 = np.zeros(0)
+        self.u = np.zeros(0)
+        self.L = 0.0
+        self.restart()
+
+    def start(self, target: np.ndarray, q0: np.ndarray, q_goal: np.ndarray, qd: np.ndarray) -> None:
+        """The line from ``q0`` to ``q_goal`` for ``target``; the progress starts with the
+        arm's motion ``qd`` projected on it (never backwards)."""
+        self.target = target.copy()
+        self.q0 = q0.copy()
+        dq = q_goal - q0
+        self.L = float(np.sqrt(dq @ dq))
+        self.u = dq / self.L if self.L > 0.0 else np.zeros_like(dq)
+        self.restart(max(float(qd @ self.u), 0.0), 0.0)
+
+    def q_at(self, s: float) -> np.ndarray:
+        """q(s), the reference on the joint line."""
+        return self.q0 + s * self.u

@@ -57,8 +57,10 @@ from ..model.limits import (
     stopping_distance,
 )
 from ..singularity import analyze
+from ..solvers.base import SolveResult
+from ..solvers.ik import ik_iterate
 from ..spatial import pose_error_into, rigid_transform_defect
-from .approach import StraightApproach
+from .approach import JointLine, StraightApproach
 from .command import _RANK, STATUSES, Command, make_command
 from .jog import Jog
 from .progress import ProgressLimits
@@ -308,6 +310,9 @@ class ResolvedRateController:
         self._straight_servo = not getattr(self.solver, "adds_rows", False)
         self._pursuit = self.chain.dof < 6
         self._straight = StraightApproach(length=self.chain.characteristic_length)
+        self._joint_line = JointLine()
+        self._ik_tried: np.ndarray | None = None  # the last target an IK alternative was sought for
+        self._line_blocked = ""
         self._lag_max = _LAG_MAX
 
     def _check_finite_limits(self) -> None:
@@ -336,7 +341,7 @@ class ResolvedRateController:
         self._q_last = None
         self._q_next_last = None
         self._latched = ""
-        self._straight.reset()
+        self._forget_approach()
         self._jogger.reset()
         self._singular_kind: str | None = None
         self._unreachable: np.ndarray | None = None  # the target last found out of reach
@@ -416,11 +421,11 @@ class ResolvedRateController:
             self._jogger.reset()
             halt = self._servo(cyc, q, dt, target)
         elif target is None and qd_ff is None and twist is not None:
-            self._straight.reset()
+            self._forget_approach()
             halt = self._jog(cyc, q, dt, twist)
         else:
             self._jogger.reset()
-            self._straight.reset()
+            self._forget_approach()
             cyc = self._error(q, target, twist)
             halt = self._solve(cyc, q, dt, qd_ff)
         if halt is not None:
@@ -642,6 +647,12 @@ class ResolvedRateController:
         cyc.J = J
         cyc.target = True
         ap = self._straight
+        jl = self._joint_line
+        if jl.target is not None:
+            if np.array_equal(target, jl.target):
+                return self._joint_servo(cyc, q, dt, target, T, J)
+            jl.reset()  # a new target: a straight line again, from where the arm is
+            ap.reset()
         if ap.target is None or self._pursuit or not np.array_equal(target, ap.target):
             if ap.target is None:  # a first target: from the measured pose and the arm's motion
                 ap.retarget(target, T, J @ self._qd, J @ self._qdd)
@@ -705,6 +716,59 @@ class ResolvedRateController:
                     caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
                 self._progress_flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
             cyc.approach = ap.s / ap.L
+            if cyc.blocked:
+                self._try_joint_line(cyc, q, target)
+        return None
+
+    def _forget_approach(self) -> None:
+        """No approach in progress: the next target starts a new one from where the arm is."""
+        self._straight.reset()
+        self._joint_line.reset()
+        self._ik_tried = None
+
+    def _try_joint_line(self, cyc: _Cycle, q, target) -> None:
+        """The straight line is blocked where the arm stands: the alternative is a straight
+        line in joint space (`JointLine`) to an inverse-kinematics solution of the target on
+        the arm's own branch (the IK core `ratectl.solvers.ik`, from the measured q, steps of
+        at most 0.1 rad, within the joint limits). Taken when that solution is verified (the
+        pose within a tenth of the tolerances); then the tool leaves its line, the reason
+        says why; otherwise the line stays blocked (``target-unreachable``). Tried once per
+        target."""
+        if self._ik_tried is not None and np.array_equal(target, self._ik_tried):
+            return
+        self._ik_tried = target.copy()
+        res = ik_iterate(self.chain, target, q, tol_position=0.1 * self.position_tolerance,
+                         tol_orientation=0.1 * self.orientation_tolerance, max_iter=200,
+                         damping=0.05, max_step=0.1)
+        if not res.converged:
+            cyc.blocked += "; no inverse-kinematics solution within the joint limits from here"
+            return
+        self._joint_line.start(target, q, np.array(res.q), self._qd)
+        self._line_blocked = cyc.blocked
+        cyc.reasons.append(f"the straight line is blocked ({cyc.blocked}): moving in joint space to an "
+                           "inverse-kinematics solution of the target instead (the tool leaves the line)")
+        cyc.blocked = ""
+
+    def _joint_servo(self, cyc: _Cycle, q, dt, target, T, J) -> Command | None:
+        """One period on the `JointLine`: q̇ = ṡ̄·u + K·(q(s) − q) (the progress within the
+        joint limits, w = u; feedback on the joint reference), its tool twist J q̇ reported."""
+        jl = self._joint_line
+        e = cyc.e = np.zeros(6)
+        cyc.ep, cyc.eo = pose_error_into(e, target, T)
+        q_ref = jl.q_at(jl.s)
+        caps = self._bounds.caps(q, jl.u, dt=dt)
+        speed = jl.advance(caps, dt)
+        if self.filter is not None:
+            speed = jl.sd
+            cyc.qdd_ff = jl.u * jl.sdd
+        qd = jl.u * speed + (q_ref - q) * (1.0 / self._inv_kmax if self._inv_kmax > 0.0 else 0.0)
+        cyc.qd = cyc.approach_qd = qd
+        cyc.xi = J @ qd
+        cyc.res = SolveResult(qd=qd, achieved=cyc.xi, task_error=np.zeros(6), damping=0.0,
+                              sigma_min=float("nan"), method="joint-line")
+        cyc.approach = jl.s / jl.L if jl.L > 0.0 else 1.0
+        cyc.reasons.append(f"moving in joint space to an inverse-kinematics solution of the target "
+                           f"({cyc.approach:.0%}): the straight line is blocked ({self._line_blocked})")
         return None
 
     # --- stage 3c: jogging along a twist
@@ -714,15 +778,16 @@ class ResolvedRateController:
         from the result. ``q`` and ``dt`` go to solvers that need them (extra rows)."""
         return self.solver.solve(J, d, q=q, dt=dt)
 
-    def _exact_direction(self, q: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, float]:
-        """(w, σ_min) at ``q``: the minimum-norm joint velocity J⁺d of the direction ``d`` by
-        the exact (undamped) pseudo-inverse, and σ_min(J), from one SVD (the singularity
-        look-ahead of `ProgressLimits`: does the direction need joint speeds ∝ 1/σ_min?)."""
+    def _exact_direction(self, q: np.ndarray, d: np.ndarray) -> tuple[float, float]:
+        """(σ_min, share) at ``q`` from one SVD J = U S Vᵀ: σ_min(J), and the share of the
+        exact joint speed |J⁺d|² = Σ (uᵢ·d / σᵢ)² that goes into the weakest direction
+        (the singularity look-ahead of `ProgressLimits`: is ``d`` being lost?)."""
         U, S, Vt = np.linalg.svd(self.chain.jacobian(q), full_matrices=False)
-        smin = float(S[-1]) if S.shape[0] == 6 else 0.0
-        keep = S > S[0] * 1e-12
-        w = Vt[keep].T @ ((U[:, keep].T @ d) / S[keep])
-        return w, smin
+        if S.shape[0] < 6 or not S[-1] > S[0] * 1e-12:
+            return 0.0, 1.0
+        c = (U.T @ d) / S
+        total = float(c @ c)
+        return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0)
 
     def _sigma_for_watch(self, res: Any) -> float | None:
         """σ_min of a direction solve when it may be below the watch threshold, else None

@@ -49,7 +49,7 @@ __all__ = ["ProgressCaps", "ProgressLimits"]
 _TINY_W = 1e-12  # a joint with |w_i| below this does not move along the direction
 _LIMIT_MARGIN = 0.0  # [rad or m] a progress stops this far inside a joint's position limit
 _VMAX_HEADROOM = 0.05  # the share of vmax a smoothed progress leaves to its filter
-_LOST = 0.5  # elasticity of |J⁺d| against 1/σ_min above which a direction is being lost
+_LOST = 0.2  # share of |J⁺d|² in the weakest direction above which a direction is being lost
 _SIGMA_NOISE = 1e-10  # a change of σ_min over the look-ahead step below this is rounding
 _UNBOUNDED = 1e9  # an absent bound on the progress (Ruckig needs finite limits)
 _JERK_BIG = 1e12  # an unbounded progress jerk in the jerk-limited braking formula
@@ -157,9 +157,9 @@ class ProgressLimits:
             dt: the coming period [s].
             sigma: σ_min(J(q)) if known (else computed when needed).
             w_prime: dw/ds (n,) if known (the curvature term), else None.
-            exact: ``f(q) -> (w, σ_min)``: the direction's exact minimum-norm joint velocity
-                J⁺d and σ_min(J) at any q, for the singularity look-ahead (None: no
-                singularity bound).
+            exact: ``f(q) -> (σ_min, share)``: σ_min(J) at any q and the share of the
+                direction's exact joint speed |J⁺d|² in the weakest direction, for the
+                singularity look-ahead (None: no singularity bound).
         """
         aw = np.abs(w)
         moving = aw > _TINY_W
@@ -225,25 +225,24 @@ class ProgressLimits:
 
     def _singularity(self, caps: ProgressCaps, q, w, exact) -> None:
         """The singularity bound (see the module docstring) applied to ``caps``: only for a
-        direction that is being lost, whose exact joint speed |J⁺d| grows like 1/σ_min as
-        σ_min falls (its elasticity d ln|J⁺d| / d ln(1/σ_min) above 1/2); a direction that
-        stays in the range of J as the arm reaches the singular configuration (a target on
-        the smooth branch, q5 → 0 on a UR wrist) needs bounded joint speeds and is not
-        blocked (vmax bounds it as everywhere)."""
-        w_here, sigma = exact(q)
+        direction that is being lost, most of whose exact joint speed |J⁺d|² goes into the
+        weakest direction of J (share above 0.2: as σ_min → 0 it needs joint speeds ∝
+        1/σ_min); a direction that stays in the range of J at the singular configuration (a
+        target on the smooth branch, q5 → 0 on a UR wrist) needs bounded joint speeds and
+        is not blocked (vmax bounds it as everywhere)."""
+        sigma, share = exact(q)
         caps.sigma = sigma
+        if not share > _LOST:
+            return
         norm = float(np.sqrt(w @ w))
         if not norm > 0.0:
             return
         ds = 1e-4 / norm  # a 1e-4 rad (or m) joint step along w
-        w_ahead, sigma_ahead = exact(q + w * ds)
+        sigma_ahead, _ = exact(q + w * ds)
         drop = sigma - sigma_ahead
         if not drop > _SIGMA_NOISE * (1.0 + sigma):
             return  # moving away from the singularity, or along it (σ_min unchanged): never bounded
         slope = -drop / ds  # dσ_min/ds
-        n_here, n_ahead = float(np.sqrt(w_here @ w_here)), float(np.sqrt(w_ahead @ w_ahead))
-        if n_here > 0.0 and (n_ahead - n_here) / n_here < _LOST * drop / max(sigma, 1e-300):
-            return  # the direction keeps bounded joint speeds into the singularity: not lost
         room = (sigma - self.stop_sigma) / (-2.0 * slope)
         if max(room, 0.0) < caps.room:
             caps.room, caps.room_by, caps.room_joint = max(room, 0.0), "singularity", -1
