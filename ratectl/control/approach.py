@@ -57,6 +57,7 @@ class Progress:
         self.s_prev = 0.0
         self._brake = 0.0
         self.blocked = False
+        self.end_accel = math.inf  # the acceleration bound at the end of the line, when known
 
     def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0) -> float:
         """One period of the progress toward rest at L within ``caps`` (the speed bound
@@ -79,14 +80,15 @@ class Progress:
         vmax = max(caps.free_speed * speed_scale, 1e-12)
         amax = max(caps.accel, 1e-9)
         jmax = max(caps.jerk, 1e-6)
-        # the stop is planned at half the acceleration bound (the bound can shrink on the way,
-        # as J changes: near a singularity by several times); where the stop from the present
+        # the stop is planned at half the acceleration bound, here or at the end of the line
+        # whichever is smaller (the bound can shrink on the way, as J changes: near a
+        # singularity by several times); where the stop from the present
         # state no longer fits, the plan brakes just as hard as needed to stop at L, up to
         # twice the bound (the whole of amax at η = 1/2; the jerk stays within its share), instead
         # of passing the target and coming back. A stop once planned harder keeps its level
         # (planned again at the nominal level, the time-optimal plan would brake later each
         # period and ratchet up to the reserve).
-        nominal = _PLANNED * amax
+        nominal = _PLANNED * min(amax, self.end_accel)
         brake = max(nominal, self._brake) if self.sdd < 0.0 else nominal
         if self.sd > vmax:  # above a speed bound: its braking law assumes the whole bound
             brake = max(brake, amax)

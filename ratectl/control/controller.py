@@ -74,6 +74,7 @@ __all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver"]
 
 _SHARE = 0.5  # share of amax (and jmax) the progress of an approach or a jog may use itself
 _KIND_NEAR = 0.5  # the σ band in which `analyze` names the singularity a progress stops before
+_AT_BLOCK = 1e-5  # [progress units ~ m]: an approach at rest this close to a block stands at it
 _LAG_MAX = 0.02  # [m, weighted]: the approach's progress stops when the arm is this far behind it
 _BIG = 1e15  # an absent position or velocity limit in the bound arithmetic (no inf − inf)
 _NO_AMAX = 1e200  # an absent acceleration limit: stopping takes one period
@@ -685,6 +686,8 @@ class ResolvedRateController:
             except (RatectlError, np.linalg.LinAlgError) as err:
                 return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
             w = np.array(res_w.qd, dtype=float)
+            if ap.end_accel == math.inf and not self._pursuit:
+                self._end_bounds(ap, q, target, dt)
             caps = self._bounds.caps(q, w, dt=dt, sigma=self._sigma_for_watch(res_w),
                                        w_prime=ap.w_prime(w),
                                      exact=lambda q2: self._exact_direction(q2, ap.d))
@@ -706,7 +709,7 @@ class ResolvedRateController:
         if caps is not None:
             moving = ap.sd > 0.0 or speed > 0.0
             if ap.blocked:  # the stop is planned before a block (a limit, a singularity)
-                at_block = not moving and caps.room <= 1e-9
+                at_block = not moving and caps.room <= _AT_BLOCK
                 caps.binding, caps.reason = caps.room_by, caps.room_reason
                 caps.blocked_by = caps.room_by if at_block else ""
                 self._progress_flags(cyc, q, caps, moving, True)
@@ -719,6 +722,26 @@ class ResolvedRateController:
             if cyc.blocked:
                 self._try_joint_line(cyc, q, target)
         return None
+
+    def _end_bounds(self, ap: StraightApproach, q, target, dt) -> None:
+        """The progress's acceleration bound at the end of the line, where the arm will be:
+        from the target's inverse kinematics (the IK core `ratectl.solvers.ik`, from the
+        measured q, on the arm's branch) and the direction's q̇ there; a stop planned within
+        the smaller of it and the present bound stays feasible as J changes on the way.
+        Once per line (NaN when no solution was found: the present bound alone)."""
+        res = ik_iterate(self.chain, target, q, tol_position=self.position_tolerance,
+                         tol_orientation=self.orientation_tolerance, max_iter=30, damping=0.05,
+                         max_step=0.2)
+        ap.end_accel = math.nan
+        if not res.converged:
+            return
+        q_end = np.array(res.q)
+        try:
+            w_end = np.array(self._direction(self.chain.jacobian(q_end), ap.d, q_end, dt).qd, dtype=float)
+        except (RatectlError, np.linalg.LinAlgError):
+            return
+        if _finite_sum(w_end):
+            ap.end_accel = self._bounds.caps(q_end, w_end, dt=dt).accel
 
     def _forget_approach(self) -> None:
         """No approach in progress: the next target starts a new one from where the arm is."""
