@@ -57,20 +57,23 @@ class Progress:
         self.s_prev = 0.0
         self._brake = 0.0
         self.blocked = False
+        self.room_left = math.inf
         self.end_accel = math.inf  # the acceleration bound at the end of the line, when known
 
-    def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0) -> float:
+    def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0, lead: float = 0.0) -> float:
         """One period of the progress toward rest at L within ``caps`` (the speed bound
         multiplied by ``speed_scale`` ∈ [0, 1]); returns the mean progress speed over the
-        period, (s₁ − s₀)/dt, and updates (s, ṡ, s̈)."""
+        period, (s₁ − s₀)/dt, and updates (s, ṡ, s̈). ``lead`` is how far this progress is
+        ahead of the arm (the room ahead of a block is measured from the arm)."""
         end = self.L - self.s
         if not end > 0.0:  # at the end: the reference rests on the target
             self.s, self.sd, self.sdd = self.L, 0.0, 0.0
             return 0.0
         # the stop is planned at the target, or before a block ahead (a joint limit, the
         # σ_min at which a singularity stops the motion): at rest there, the line is blocked
-        x = min(end, caps.room)
+        x = min(end, caps.room - max(lead, 0.0))
         self.blocked = x < end
+        self.room_left = x
         if not x > 0.0 and self.sd == 0.0:
             self.sdd = 0.0
             return 0.0

@@ -692,7 +692,9 @@ class ResolvedRateController:
                                        w_prime=ap.w_prime(w),
                                      exact=lambda q2: self._exact_direction(q2, ap.d))
             w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother
-            speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max))
+            # (the room ahead is measured from the arm; the reference leads it along the line)
+            speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max),
+                               lead=ap.weighted_dot(e_ref, ap.d))
             if self.filter is not None:
                 # the filter integrates exactly: its target is the state at the end of the
                 # period (ṡ₁ with s̈₁), where q + q̇·dt needs the period's mean speed
@@ -709,7 +711,7 @@ class ResolvedRateController:
         if caps is not None:
             moving = ap.sd > 0.0 or speed > 0.0
             if ap.blocked:  # the stop is planned before a block (a limit, a singularity)
-                at_block = not moving and caps.room <= _AT_BLOCK
+                at_block = not moving and ap.room_left <= _AT_BLOCK
                 caps.binding, caps.reason = caps.room_by, caps.room_reason
                 caps.blocked_by = caps.room_by if at_block else ""
                 self._progress_flags(cyc, q, caps, moving, True)
