@@ -125,6 +125,17 @@ def _checked_gain(gain) -> np.ndarray:
     return K
 
 
+def _scaled_like(wanted: np.ndarray, clipped: np.ndarray) -> np.ndarray:
+    """``wanted`` scaled uniformly by the smallest ratio clipped/wanted over the joints a
+    clip changed (a ratio in [0, 1]; a clip that reversed a joint gives 0): the motion
+    slows along its direction instead of turning."""
+    changed = clipped != wanted
+    if not changed.any():
+        return wanted
+    ratio = np.where(changed, clipped / np.where(changed, wanted, 1.0), 1.0)
+    return wanted * float(np.clip(ratio.min(), 0.0, 1.0))
+
+
 def _checked_stamp(stamp) -> float:
     """A target's stamp as a float [s] (NaN stays NaN: a value, which halts), or InputError
     for text, a boolean or anything that is not a real number."""
@@ -929,8 +940,12 @@ class ResolvedRateController:
             self._limit_position(cyc, q, dt)
         if self.filter is not None and near:
             reference = None  # the progress reference is not met exactly: the worst case one period ahead
+            wanted = cyc.qd
             cyc.qd, cyc.braking = self._jerk_limited_position_guard(q, cyc.qd, dt, cyc.flags,
                                                                     cyc.reasons, cyc.active, reference)
+            if cyc.approach_qd is not None and cyc.qd is not wanted:
+                # an approach keeps its direction: the guard's clip scales the whole motion
+                cyc.qd = _scaled_like(wanted, cyc.qd)
         res = cyc.res
         if res.damping > 0.0 and not (enforcing and self._sigma_at_least(cyc, self.singular_sigma)):
             # a QP's λ is a constant regulariser: it is reported only near a singularity

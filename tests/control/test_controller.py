@@ -148,7 +148,7 @@ def test_joint_position_limit_holds(ur5e):
         assert q[0] <= ur5e.upper[0] + 1e-12
     assert seen and "position" in cmd.limits_active and "'shoulder_pan'" in cmd.reason
     assert q[0] > ur5e.upper[0] - 2e-3
-    q2 = q.copy()
+    q2 = Q_REG.copy()
     q2[2] = math.pi - 0.05  # the elbow toward its folded (singular) limit
     ctrl.reset()
     for _ in range(400):
