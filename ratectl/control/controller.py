@@ -213,6 +213,14 @@ class ResolvedRateController:
         timeout: a target whose ``stamp`` is older than this [s] is stale (halt).
         singular_sigma: below this σ_min a velocity-limited or failed solve is reported as
             "singular" rather than "velocity-scaled".
+        stop_sigma: the σ_min at which a jog or an approach stops before a singularity
+            whose lost direction it heads into (default: where the solver starts to damp,
+            its ``epsilon``, at least ``singular_sigma``).
+        blocked: what a servo does where its straight line is blocked (a joint limit or a
+            singularity on the way): ``"joint-space"`` (default) moves in joint space to an
+            inverse-kinematics solution of the target on the arm's branch when one exists
+            (the tool leaves the line; the reason says so); ``"stop"`` stops there
+            (``target-unreachable``, the reason names the block).
         tasks: `ratectl.tasks` objects solved with strict priorities under the limits
             (`ratectl.control.tasks_stage`): ``step(q, dt=...)`` then reads the targets from
             the tasks (``step(q, target=T)`` still servos the tool alone).
@@ -223,7 +231,7 @@ class ResolvedRateController:
                  limits: Limits | Chain | str | None = "chain", smoothing: bool = False,
                  position_tolerance: float = 1e-4, orientation_tolerance: float = 1e-3,
                  timeout: float = 0.1, singular_sigma: float = 0.02, stop_sigma: float | None = None,
-                 tasks: Any = None, collision: Any = None) -> None:
+                 blocked: str = "joint-space", tasks: Any = None, collision: Any = None) -> None:
 
         self.chain = chain
         self._n = n = chain.dof
@@ -301,6 +309,10 @@ class ResolvedRateController:
         self.timeout = positive_number("timeout", timeout, allow_inf=True, unit="[s]")
         self.singular_sigma = positive_number("singular_sigma", singular_sigma, allow_zero=True)
         self._init_jog(stop_sigma)
+        if blocked not in ("joint-space", "stop"):
+            raise InputError(f"blocked must be 'joint-space' or 'stop', got {blocked!r}", argument="blocked",
+                             value=blocked)
+        self.blocked = blocked
         self._e = np.zeros(6)
         self.reset()
         self._tasks_hook(tasks, collision)
@@ -732,7 +744,7 @@ class ResolvedRateController:
                     caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
                 self._progress_flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
             cyc.approach = ap.s / ap.L
-            if cyc.blocked:
+            if cyc.blocked and self.blocked == "joint-space":
                 self._try_joint_line(cyc, q, target)
         return None
 

@@ -47,7 +47,7 @@ if TYPE_CHECKING:
 __all__ = ["ProgressCaps", "ProgressLimits"]
 
 _TINY_W = 1e-12  # a joint with |w_i| below this does not move along the direction
-_LIMIT_MARGIN = 0.0  # [rad or m] a progress stops this far inside a joint's position limit
+_LIMIT_MARGIN = 1e-3  # [rad or m] a jog's speed bound stops this far inside a joint's position limit
 _VMAX_HEADROOM = 0.05  # the share of vmax a smoothed progress leaves to its filter
 _LOST = 0.2  # share of |J⁺d|² in the weakest direction above which a direction is being lost
 _SIGMA_NOISE = 1e-10  # a change of σ_min over the look-ahead step below this is rounding
@@ -188,16 +188,17 @@ class ProgressLimits:
         p_room, p_joint = math.inf, -1
         # position limits: joints moving toward a limit brake in time at the share of amax
         if self._has_p:
-            # (stopping _LIMIT_MARGIN short: the feedback that holds the arm on the stopped
-            # reference then never presses a joint onto its limit)
-            room = np.where(w > 0.0, self.upper - q, q - self.lower) - _LIMIT_MARGIN
+            room = np.where(w > 0.0, self.upper - q, q - self.lower)
             finite = moving & np.isfinite(room)
             room_f = np.where(finite, room, 0.0)
-            b = braking_speed_any_dt(room_f, dt, self._two_over_a)
+            # the speed bound stops _LIMIT_MARGIN short (a jog of an arm that lags its command
+            # then does not press a joint onto its limit); the room ahead of an approach ends
+            # at the limit itself (a target may lie on it)
+            b = braking_speed_any_dt(room_f - _LIMIT_MARGIN, dt, self._two_over_a)
             if self._jerk_limited is not None:  # and the jerk-limited stop fits as well
                 share_a, share_j = self._jerk_limited
-                b = np.minimum(b, braking_speed(np.maximum(room_f - self._jerk_slack * dt, 0.0), share_a,
-                                                share_j))
+                rest = np.maximum(room_f - _LIMIT_MARGIN - self._jerk_slack * dt, 0.0)
+                b = np.minimum(b, braking_speed(rest, share_a, share_j))
             p_each = np.where(finite, np.maximum(b, 0.0) * inv, np.inf)
             r_each = np.where(finite, np.maximum(room_f, 0.0) * inv, np.inf)
             jr = int(np.argmin(r_each))

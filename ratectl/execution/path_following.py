@@ -127,7 +127,9 @@ def _validate(chain, path, q0, dt, controller):
                            f"[{chain.lower[i]:.6g}, {chain.upper[i]:.6g}]" for i in outside)
         raise InputError(f"q0 is outside the joint position limits ({detail}); start inside the "
                          "range", argument="q0", value=q0)
-    ctrl = controller if controller is not None else ResolvedRateController(chain)
+    # (a path is the constraint: where its end is blocked, the default controller stops there
+    # rather than leave the path for an alternative in joint space)
+    ctrl = controller if controller is not None else ResolvedRateController(chain, blocked="stop")
     if not isinstance(ctrl, ResolvedRateController):
         raise InputError(f"controller must be a ratectl.ResolvedRateController, got "
                          f"{type(controller).__name__}", argument="controller", value=controller)
