@@ -21,6 +21,9 @@ def test_readme_example_runs(capsys):
     assert cmd.qd.shape == (6,)
     out = capsys.readouterr().out
     assert "regular" in out  # analyze(...) printed its report
+    # the status the README's comment shows is the one the example prints
+    said = re.search(r"print\(cmd\.status, cmd\.qd\)\s+# (\S+)", blocks[0])
+    assert said and cmd.status == said.group(1), (cmd.status, said)
 
 
 def test_readme_example_is_short():
@@ -34,7 +37,8 @@ def test_readme_says_how_to_install_from_the_source_tree():
     text = README.read_text(encoding="utf-8")
     assert "not on a package index" in text and 'pip install -e ".[plot]"' in text
     assert "a few seconds" not in text                      # measured: about 3 s
-    assert "velocity-scaled" in text.split("```python")[1].split("```")[1]   # explained after the example
+    said = re.search(r"print\(cmd\.status, cmd\.qd\)\s+# (\S+)", text).group(1)
+    assert f"prints `{said}`" in text.split("```python")[1].split("```")[1]   # explained after the example
 
 
 def test_no_mention_of_files_outside_the_repository():

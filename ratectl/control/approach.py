@@ -35,6 +35,15 @@ _PLANNED = 0.5  # a stop is planned at this share of the progress's acceleration
 _URGENT = 2.0  # a late stop brakes with up to this multiple of the bound (all of amax at η = 1/2)
 
 
+def _stop_bound(v: float, a: float, brake: float, jerk: float) -> float:
+    """An upper bound of `_stop` in plain arithmetic: the acceleration first ramped to
+    −brake at the jerk limit (at most (a + brake)/jerk, at most v plus a·that faster),
+    then v'²/(2·brake) (the exact test runs only when this bound does not fit)."""
+    t = (max(a, 0.0) + brake) / jerk
+    v1 = v + max(a, 0.0) * t
+    return v1 * t + v1 * v1 / (2.0 * brake)
+
+
 def _stop(v: float, a: float, brake: float, jerk: float) -> float:
     """The distance of the jerk-limited stop from speed ``v`` and acceleration ``a``."""
     return float(stopping_distance(v, a, brake, jerk, exact_when_braking=True))
@@ -58,6 +67,7 @@ class Progress:
         self._brake = 0.0
         self.blocked = False
         self.room_left = math.inf
+        self._periods = 0  # periods advanced since the segment began
         self.end_accel = math.inf  # the acceleration bound at the end of the line, when known
 
     def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0, lead: float = 0.0) -> float:
@@ -65,6 +75,7 @@ class Progress:
         multiplied by ``speed_scale`` ∈ [0, 1]); returns the mean progress speed over the
         period, (s₁ − s₀)/dt, and updates (s, ṡ, s̈). ``lead`` is how far this progress is
         ahead of the arm (the room ahead of a block is measured from the arm)."""
+        self._periods += 1
         end = self.L - self.s
         if not end > 0.0:  # at the end: the reference rests on the target
             self.s, self.sd, self.sdd = self.L, 0.0, 0.0
@@ -95,7 +106,8 @@ class Progress:
         brake = max(nominal, self._brake) if self.sdd < 0.0 else nominal
         if self.sd > vmax:  # above a speed bound: its braking law assumes the whole bound
             brake = max(brake, amax)
-        if self.sd > 0.0 and _stop(self.sd, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
+        if self.sd > 0.0 and _stop_bound(self.sd, self.sdd, brake, jmax) > x \
+                and _stop(self.sd, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
             lo, hi = brake, max(_URGENT * amax, brake)
             if _stop(self.sd, self.sdd, hi, jmax) > x:
                 brake = hi
@@ -156,6 +168,11 @@ class StraightApproach(Progress):
     def weighted_norm(self, e: np.ndarray) -> float:
         """‖e‖_W for a twist or a pose error (6,)."""
         return math.sqrt(max(self.weighted_dot(e, e), 0.0))
+
+    @property
+    def settled(self) -> bool:
+        """The target has stayed the same since the segment began (at least one period)."""
+        return self._periods > 0
 
     def retarget(self, target: np.ndarray, T_from: np.ndarray, twist: np.ndarray,
                  accel: np.ndarray) -> None:

@@ -709,8 +709,8 @@ class ResolvedRateController:
             except (RatectlError, np.linalg.LinAlgError) as err:
                 return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
             w = np.array(res_w.qd, dtype=float)
-            if ap.end_accel == math.inf and not self._pursuit:
-                self._end_bounds(ap, q, target, dt)
+            if ap.end_accel == math.inf and not self._pursuit and ap.settled:
+                self._end_bounds(ap, q, target, dt)  # (a target that moves every period: not yet)
             caps = self._bounds.caps(q, w, dt=dt, sigma=self._sigma_for_watch(res_w),
                                        w_prime=ap.w_prime(w),
                                      exact=lambda q2: self._exact_direction(q2, ap.d))
