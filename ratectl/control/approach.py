@@ -204,11 +204,6 @@ class StraightApproach(Progress):
         T[:3, :3] = so3_exp(f * self.r) @ self.R0 if f != 0.0 else self.R0
         return T
 
-    @property
-    def remaining(self) -> float:
-        """L − s, the progress still to go."""
-        return self.L - self.s
-
     def w_prime(self, w: np.ndarray) -> np.ndarray | None:
         """dw/ds from the previous period's w (None until the progress has moved)."""
         wp, ds = self.w_prev, self.s - self.s_prev

@@ -6,11 +6,11 @@
     ξ  = ξ_ff + K e                           (feed-forward plus proportional feedback)
     q̇  = q̇_ff + solver(J(q), ξ)               (inverse velocity; q̇_ff optional)
 
-then, for pure servoing (a target, no feed-forward), shapes the approach so that the arm
-can always still stop at the target within its joint limits (see ``_approach``: the
-feedback is scaled so each joint can brake within its remaining travel J⁺e; with smoothing,
-a one-DOF Ruckig profile on the progress ‖e‖ gives the speed and the acceleration the
-filter then follows without lag), and applies the limits in this order: velocity (uniform
+A target alone is a servo: the tool moves on the straight line to it (`StraightApproach`,
+``_servo``), a jerk-limited progress within the joint limits mapped onto it
+(`ProgressLimits`), and, where that line is blocked, in joint space to an inverse-kinematics
+solution (`JointLine`). A twist alone is a jog along it (`Jog`, ``_jog``). Then the
+controller applies the limits in this order: velocity (uniform
 scaling, which keeps the direction of motion), acceleration (the change of q̇ per cycle is
 scaled to fit amax·dt), joint position (each joint may only move as fast as it can still
 stop before its limit at amax whatever the later periods are, ``braking_speed_any_dt``;
@@ -282,7 +282,6 @@ class ResolvedRateController:
             self._has_v = self._has_a = self._has_p = False
         self._smoothing_option = smoothing
         self._zeros = np.zeros(n)
-        self._zeros6 = np.zeros(6)
         self._all_joints = np.ones(n, dtype=bool)
         self._target_ok = None  # the last target found rigid (checked again only when it changes)
         self.filter: VelocityFilter | None = None

@@ -17,18 +17,23 @@ measured q, for the coming period:
 * **position limits**: joint i moving toward a limit at distance Dᵢ may move at most at the
   speed from which it still stops there at η·amaxᵢ whatever the later periods are
   (`braking_speed_any_dt`), so ṡ ≤ that speed/|wᵢ|;
-* **singularities**: σ_min(J) must not fall below ``stop_sigma`` while the motion lowers it.
-  Its rate along the direction, σ′ = dσ_min/ds, comes from a finite difference of σ_min one
-  small step ahead along w; the remaining progress before σ_min reaches ``stop_sigma`` is
-  estimated as Δs = (σ_min − stop)/(2|σ′|) (half the first-order estimate: σ_min falls like
-  √(distance) at a boundary singularity), and ṡ ≤ √(2·a_s·Δs) with a_s the acceleration
-  bound above. The arm therefore decelerates and stops *before* the lost direction, with
-  the direction of the tool motion unchanged, and moves away at once (σ′ > 0 is never
-  bounded).
+* **singularities**, for a direction that is being lost (more than a fifth of its exact
+  joint speed |J⁺d|² goes into the weakest singular direction of J, so it needs joint
+  speeds ∝ 1/σ_min as σ_min → 0): σ_min(J) must not fall below ``stop_sigma`` while the
+  motion lowers it. Its rate along the direction, σ′ = dσ_min/ds, comes from a finite
+  difference of σ_min one small step ahead along w; the remaining progress before σ_min
+  reaches ``stop_sigma`` is estimated as Δs = (σ_min − stop)/(2|σ′|) (half the first-order
+  estimate: σ_min falls like √(distance) at a boundary singularity). The arm therefore
+  stops *before* the lost direction, with the direction of the tool motion unchanged, and
+  moves away at once (σ′ > 0 is never bounded). A direction that stays in the range of J
+  at the singular configuration is not bounded by this (vmax bounds it as everywhere).
 
-A cap of zero with the progress at rest means the direction is **blocked**: ``blocked_by``
-says by what ("singularity" or "position"), with the joint (by the chain's joint name) or
-σ_min, in ``reason``.
+The position and singularity bounds come in two forms: ``room``, the progress left before
+the nearest block (the servo's approach plans its stop there), and a speed bound, the
+jerk-limited braking speed within that room (a jog meets it). A speed bound of zero with
+the progress at rest means the direction is **blocked**: ``blocked_by`` says by what
+("singularity" or "position"), with the joint (by the chain's joint name) or σ_min, in
+``reason``.
 """
 
 from __future__ import annotations
@@ -68,15 +73,14 @@ class ProgressCaps:
             blocked where the arm is), else "".
         joint: index of the binding joint (position and velocity bounds), or -1.
         sigma: σ_min(J) at q (NaN when not computed: far from every singularity).
-        singular_speed: the singularity bound on ṡ (inf when it does not bind).
         reason: a sentence for the command ("" when nothing binds).
         free_speed: the bound on ṡ from vmax and the curvature alone, without the braking
             toward a position limit or a singularity (those are ``room``).
         room: the progress still free ahead of the nearest block, a position limit or the
             σ_min of ``stop_sigma`` (first-order estimates, inf when none): a motion that
             plans its stop (the approach) plans it there instead of meeting ``speed``.
-        room_by, room_joint, room_reason: what blocks there ("position" or "singularity"),
-            the joint of a position limit (or -1), and a sentence for the command.
+        room_by, room_reason: what blocks there ("position" or "singularity") and a sentence
+            for the command.
     """
 
     speed: float
@@ -86,12 +90,10 @@ class ProgressCaps:
     blocked_by: str = ""
     joint: int = -1
     sigma: float = math.nan
-    singular_speed: float = math.inf
     reason: str = ""
     free_speed: float = math.inf
     room: float = math.inf
     room_by: str = ""
-    room_joint: int = -1
     room_reason: str = ""
 
 
@@ -206,23 +208,23 @@ class ProgressLimits:
             jp = int(np.argmin(p_each))
             if p_each[jp] < speed:
                 speed, binding, joint = float(p_each[jp]), "position", jp
-                side = "upper" if w[jp] > 0.0 else "lower"
-                if speed <= 0.0:
-                    blocked_by = "position"
-                    reason = f"joint {self.name(jp)} is at its {side} limit"
-                else:
-                    reason = f"joint {self.name(jp)} braking toward its {side} limit"
+                blocked_by = "position" if speed <= 0.0 else ""
+                reason = self._limit_reason(w, jp, at=speed <= 0.0)
         caps = ProgressCaps(speed=speed, accel=min(accel, _UNBOUNDED), jerk=min(jerk, _UNBOUNDED),
                             binding=binding, blocked_by=blocked_by, joint=joint, reason=reason,
                             free_speed=free_speed)
         if self._has_p and math.isfinite(p_room):
-            side = "upper" if w[p_joint] > 0.0 else "lower"
-            caps.room, caps.room_by, caps.room_joint = p_room, "position", p_joint
-            caps.room_reason = (f"joint {self.name(p_joint)} is at its {side} limit" if p_room <= 0.0
-                                else f"joint {self.name(p_joint)} braking toward its {side} limit")
+            caps.room, caps.room_by = p_room, "position"
+            caps.room_reason = self._limit_reason(w, p_joint, at=p_room <= 0.0)
         if exact is not None and sigma is not None and sigma < self.watch_sigma:
             self._singularity(caps, q, w, exact)
         return caps
+
+    def _limit_reason(self, w: np.ndarray, i: int, *, at: bool) -> str:
+        """The sentence for joint ``i`` moving toward the limit on the side of w_i."""
+        side = "upper" if w[i] > 0.0 else "lower"
+        return (f"joint {self.name(i)} is at its {side} limit" if at
+                else f"joint {self.name(i)} braking toward its {side} limit")
 
     def _singularity(self, caps: ProgressCaps, q, w, exact) -> None:
         """The singularity bound (see the module docstring) applied to ``caps``: only for a
@@ -245,24 +247,14 @@ class ProgressLimits:
             return  # moving away from the singularity, or along it (σ_min unchanged): never bounded
         slope = -drop / ds  # dσ_min/ds
         room = (sigma - self.stop_sigma) / (-2.0 * slope)
-        if max(room, 0.0) < caps.room:
-            caps.room, caps.room_by, caps.room_joint = max(room, 0.0), "singularity", -1
-            caps.room_reason = (f"stopped before a singularity: σ_min = {sigma:.3g} ≤ {self.stop_sigma:.3g} "
-                                "and the commanded direction lowers it further" if room <= 0.0 else
-                                f"approaching a singularity (σ_min = {sigma:.3g}, stops at "
-                                f"{self.stop_sigma:.3g}): slowed along the commanded direction")
-        # the jerk-limited stop within that room at the acceleration bound
+        reason = (f"stopped before a singularity: σ_min = {sigma:.3g} ≤ {self.stop_sigma:.3g} and the "
+                  "commanded direction lowers it further" if room <= 0.0 else
+                  f"approaching a singularity (σ_min = {sigma:.3g}, stops at {self.stop_sigma:.3g}): "
+                  "slowed along the commanded direction")
+        if max(room, 0.0) < caps.room:  # the room ahead (an approach plans its stop there)
+            caps.room, caps.room_by, caps.room_reason = max(room, 0.0), "singularity", reason
+        # the speed bound (a jog): the jerk-limited stop within that room at the acceleration bound
         bound = float(braking_speed(room, caps.accel, min(caps.jerk, _JERK_BIG))) if room > 0.0 else 0.0
-        caps.singular_speed = bound
         if bound < caps.speed:
-            caps.speed = bound
-            caps.binding = "singularity"
-            caps.joint = -1
-            if bound <= 0.0:
-                caps.blocked_by = "singularity"
-                caps.reason = (f"stopped before a singularity: σ_min = {sigma:.3g} ≤ {self.stop_sigma:.3g} "
-                               "and the commanded direction lowers it further")
-            else:
-                caps.blocked_by = ""
-                caps.reason = (f"approaching a singularity (σ_min = {sigma:.3g}, stops at "
-                               f"{self.stop_sigma:.3g}): slowed along the commanded direction")
+            caps.speed, caps.binding, caps.joint, caps.reason = bound, "singularity", -1, reason
+            caps.blocked_by = "singularity" if bound <= 0.0 else ""

@@ -153,12 +153,18 @@ def _pan_twist(arm, q0, w):
     return twist
 
 
-@pytest.mark.parametrize("drop", [0.0, 0.5, 0.8])
-def test_dropped_samples_never_pass_a_limit(drop):
+@pytest.fixture(scope="module", params=[0.0, 0.5, 0.8], ids=lambda d: f"drop{d}")
+def pan_into_limit(request):
+    """The PUMA's pan jogged into its upper limit on a scripted arm that drops samples."""
     arm = rc.robots.puma560()
     q0 = np.array([2.70, 0.6, -1.2, 0.3, 0.6, 0.2])
-    drv = ScriptedDriver(arm, q0, drop=drop, seed=1)
+    drv = ScriptedDriver(arm, q0, drop=request.param, seed=1)
     ex = rc.run(drv, twist=_pan_twist(arm, q0, 0.8), rate_hz=RATE, duration=1.0, timeout=1.0)
+    return request.param, arm, q0, drv, ex
+
+
+def test_dropped_samples_never_pass_a_limit(pan_into_limit):
+    drop, arm, q0, drv, ex = pan_into_limit
     t, qd, q = _true_q(drv, q0)
     assert q[:, 0].max() > arm.upper[0] - 0.02  # it got to the limit
     past = np.max(np.maximum(q - arm.upper, arm.lower - q), axis=0)
@@ -166,12 +172,8 @@ def test_dropped_samples_never_pass_a_limit(drop):
     assert drop == 0.0 or (~ex.fresh).any()
 
 
-@pytest.mark.parametrize("drop", [0.0, 0.5, 0.8])
-def test_commanded_acceleration_within_amax_at_a_limit_with_dropped_samples(drop):
-    arm = rc.robots.puma560()
-    q0 = np.array([2.70, 0.6, -1.2, 0.3, 0.6, 0.2])
-    drv = ScriptedDriver(arm, q0, drop=drop, seed=1)
-    ex = rc.run(drv, twist=_pan_twist(arm, q0, 0.8), rate_hz=RATE, duration=1.0, timeout=1.0)
+def test_commanded_acceleration_within_amax_at_a_limit_with_dropped_samples(pan_into_limit):
+    _, arm, _, _, ex = pan_into_limit
     # a stale cycle brakes: commanded |q̈| within amax over the robot's periods, every cycle
     acc = np.abs(np.diff(ex.qd, axis=0)) / np.diff(ex.t)[:, None]
     assert np.all(acc <= arm.amax * (1 + 1e-9)), (float(np.max(acc / arm.amax)), ex.status_counts())
