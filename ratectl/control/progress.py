@@ -252,7 +252,10 @@ class ProgressLimits:
                   f"approaching a singularity (σ_min = {sigma:.3g}, stops at {self.stop_sigma:.3g}): "
                   "slowed along the commanded direction")
         if max(room, 0.0) < caps.room:  # the room ahead (an approach plans its stop there)
-            caps.room, caps.room_by, caps.room_reason = max(room, 0.0), "singularity", reason
+            # (said of the block itself: whether the arm still moves is the status's to say)
+            caps.room, caps.room_by = max(room, 0.0), "singularity"
+            caps.room_reason = (f"a singularity whose lost direction the line heads into (σ_min = "
+                                f"{sigma:.3g}; the motion stops at {self.stop_sigma:.3g})")
         # the speed bound (a jog): the jerk-limited stop within that room at the acceleration bound
         bound = float(braking_speed(room, caps.accel, min(caps.jerk, _JERK_BIG))) if room > 0.0 else 0.0
         if bound < caps.speed:

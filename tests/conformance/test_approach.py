@@ -433,3 +433,24 @@ def test_smoothed_approach_to_a_goal_on_a_position_limit_does_not_overshoot():
             break
     assert cmd.status == "target-reached"
     assert max(along) - L <= 0.01 * L + 1e-4
+
+
+@pytest.mark.parametrize("smoothing", [False, True])
+def test_a_blocked_line_is_reported_as_a_stop_not_as_slowing(smoothing):
+    """A UR5e target 1.6 m out of reach: the line stops before the boundary singularity,
+    at rest, and the terminal reason names the block; it does not describe the arm as
+    still "approaching" or "slowed" (the wording of a block ahead once said so at rest)."""
+    chain = rc.robots.ur5e()
+    q = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
+    T = chain.fk(q)
+    T[:3, 3] += [1.5, 0.5, 0.3]
+    ctrl = rc.ResolvedRateController(chain, smoothing=smoothing)
+    for _ in range(2000):
+        cmd = ctrl.step(q, target=T, dt=2e-3)
+        q = cmd.q_next
+        if cmd.status in ("target-reached", "target-unreachable"):
+            break
+    assert cmd.status == "target-unreachable", cmd
+    head = cmd.reason.split(";")[0]
+    assert "blocked" in head and "singularity" in head, cmd.reason
+    assert "approaching" not in head and "slowed" not in head, cmd.reason
