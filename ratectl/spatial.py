@@ -277,34 +277,55 @@ def pose_error(T_desired: ArrayLike, T_actual: ArrayLike) -> np.ndarray:
     return np.concatenate(np.broadcast_arrays(dp, so3_log(Rerr)), axis=-1)
 
 
+def so3_exp_rows(x: float, y: float, z: float) -> list[list[float]]:
+    """`so3_exp` of one rotation vector ``w = (x, y, z)`` as three rows of Python floats.
+
+    ``R = I + A[w]× + B[w]×²`` with ``A = sin θ/θ``, ``B = (1 − cos θ)/θ²`` and
+    ``[w]×² = w wᵀ − θ² I`` (the same series below θ = 1e-6). Plain arithmetic: a control
+    cycle calls it on one vector, where numpy's per-call cost would dominate.
+    """
+    th2 = x * x + y * y + z * z
+    if th2 < _SMALL * _SMALL:
+        A, B = 1.0 - th2 / 6.0, 0.5 - th2 / 24.0
+    else:
+        th = math.sqrt(th2)
+        A, B = math.sin(th) / th, (1.0 - math.cos(th)) / th2
+    Bxy, Bxz, Byz = B * x * y, B * x * z, B * y * z
+    return [[1.0 + B * (x * x - th2), Bxy - A * z, Bxz + A * y],
+            [Bxy + A * z, 1.0 + B * (y * y - th2), Byz - A * x],
+            [Bxz - A * y, Byz + A * x, 1.0 + B * (z * z - th2)]]
+
+
+def so3_log_rows(R: list[list[float]]) -> tuple[float, float, float, float]:
+    """`so3_log` of one rotation given as three rows of floats: ``(x, y, z, θ)``, the
+    rotation vector and its angle [rad]. The angle is ``atan2(‖vee(R)‖, (tr R − 1)/2)``;
+    past ``cos θ < −0.9`` the axis comes from `so3_log`'s symmetric-part branch."""
+    vx = 0.5 * (R[2][1] - R[1][2])
+    vy = 0.5 * (R[0][2] - R[2][0])
+    vz = 0.5 * (R[1][0] - R[0][1])
+    c = 0.5 * (R[0][0] + R[1][1] + R[2][2] - 1.0)
+    if c < -0.9:
+        x, y, z = so3_log(np.array(R)).tolist()
+        return x, y, z, math.sqrt(x * x + y * y + z * z)
+    s = math.sqrt(vx * vx + vy * vy + vz * vz)
+    th = math.atan2(s, c)
+    f = th / s if th > _SMALL else 1.0 + th * th / 6.0
+    return f * vx, f * vy, f * vz, th
+
+
 def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray) -> tuple[float, float]:
     """`pose_error` of one pair of (4, 4) poses written into ``out`` (6,).
 
     Returns ``(‖p_d − p‖ [m], θ [rad])``, the norms of the two parts. The scalar
     arithmetic avoids numpy's per-call cost on 3-vectors (this runs every control
-    cycle); the rotation angle is ``atan2(‖vee(R)‖, (tr R − 1)/2)`` and, past
-    ``cos θ < −0.9``, the axis comes from `so3_log`'s symmetric-part branch.
+    cycle); the rotational part is `so3_log_rows` of R_d Rᵀ.
     """
-    out[0] = T_desired[0, 3] - T_actual[0, 3]
-    out[1] = T_desired[1, 3] - T_actual[1, 3]
-    out[2] = T_desired[2, 3] - T_actual[2, 3]
-    R = (T_desired[:3, :3] @ T_actual[:3, :3].T).tolist()
-    vx = 0.5 * (R[2][1] - R[1][2])
-    vy = 0.5 * (R[0][2] - R[2][0])
-    vz = 0.5 * (R[1][0] - R[0][1])
-    s = math.sqrt(vx * vx + vy * vy + vz * vz)
-    c = 0.5 * (R[0][0] + R[1][1] + R[2][2] - 1.0)
-    if c < -0.9:
-        out[3:] = so3_log(np.array(R))
-        th = math.sqrt(float(out[3] * out[3] + out[4] * out[4] + out[5] * out[5]))
-    else:
-        th = math.atan2(s, c)
-        f = th / s if th > _SMALL else 1.0 + th * th / 6.0
-        out[3] = f * vx
-        out[4] = f * vy
-        out[5] = f * vz
-    ep = math.sqrt(float(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]))
-    return ep, th
+    ex = float(T_desired[0, 3] - T_actual[0, 3])
+    ey = float(T_desired[1, 3] - T_actual[1, 3])
+    ez = float(T_desired[2, 3] - T_actual[2, 3])
+    x, y, z, th = so3_log_rows((T_desired[:3, :3] @ T_actual[:3, :3].T).tolist())
+    out[:] = (ex, ey, ez, x, y, z)
+    return math.sqrt(ex * ex + ey * ey + ez * ez), th
 
 
 def rigid_transform_defect(T: ArrayLike, *, tolerance: float = 1e-6) -> str | None:
@@ -314,6 +335,22 @@ def rigid_transform_defect(T: ArrayLike, *, tolerance: float = 1e-6) -> str | No
     ``tolerance`` bounds max|RRᵀ − I| and |det R − 1|. A scaled rotation (‖R‖ ≠ 1) and a
     mirror (det R = −1) are both refused.
     """
+    if type(T) is np.ndarray and T.dtype == np.float64 and T.shape == (4, 4):
+        # the per-cycle case (a servo target): plain arithmetic on one list, the
+        # message only when something is wrong
+        r = T.tolist()
+        r0, r1, r2, r3 = r
+        t = sum(r0) + sum(r1) + sum(r2) + sum(r3)
+        if t - t == 0.0 and r3 == [0.0, 0.0, 0.0, 1.0]:
+            a0, a1, a2 = r0[0], r0[1], r0[2]
+            b0, b1, b2 = r1[0], r1[1], r1[2]
+            c0, c1, c2 = r2[0], r2[1], r2[2]
+            ortho = max(abs(a0 * a0 + a1 * a1 + a2 * a2 - 1.0), abs(b0 * b0 + b1 * b1 + b2 * b2 - 1.0),
+                        abs(c0 * c0 + c1 * c1 + c2 * c2 - 1.0), abs(a0 * b0 + a1 * b1 + a2 * b2),
+                        abs(a0 * c0 + a1 * c1 + a2 * c2), abs(b0 * c0 + b1 * c1 + b2 * c2))
+            det = a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0)
+            if ortho <= tolerance and abs(det - 1.0) <= tolerance:
+                return None
     try:
         if isinstance(T, str | bytes) or np.iscomplexobj(T):
             raise TypeError("T")

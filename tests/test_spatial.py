@@ -128,3 +128,36 @@ def test_skew_vee_batched():
     assert S.shape == (4, 3, 3)
     assert np.allclose(sp.vee(S), v)
     assert np.allclose(S[1] @ [1, 2, 3], np.cross(v[1], [1, 2, 3]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(vec3, st.sampled_from([0.0, 1e-9, 1e-7, 1e-6, 2e-6, 1e-3, 0.5, 2.0, 2.7, 3.0, math.pi - 1e-9,
+                              math.pi]) | st.floats(0.0, math.pi))
+def test_scalar_so3_forms_agree_with_the_array_forms(axis, angle):
+    """so3_exp_rows / so3_log_rows (plain floats, used every control cycle) give what
+    so3_exp / so3_log give, near 0, near π (the symmetric-part branch) and between."""
+    w = angle * np.array(axis) / np.linalg.norm(axis)
+    R = np.array(sp.so3_exp_rows(*w.tolist()))
+    assert np.allclose(R, sp.so3_exp(w), atol=1e-15, rtol=0)
+    x, y, z, th = sp.so3_log_rows(R.tolist())
+    assert np.allclose([x, y, z], sp.so3_log(R), atol=1e-12, rtol=0)
+    assert th == pytest.approx(np.linalg.norm(sp.so3_log(R)), abs=1e-12)
+
+
+@settings(max_examples=300, deadline=None)
+@given(vec3, st.floats(0.0, math.pi), st.integers(0, 15), st.sampled_from([0.0, 1e-7, 2e-6, 1e-3, -1.0]))
+def test_rigid_transform_defect_fast_path_agrees_with_the_full_check(axis, angle, entry, delta):
+    """The per-cycle (plain float) path of rigid_transform_defect accepts exactly what the
+    array path accepts: a rotation perturbed in one entry, a mirror, a wrong last row."""
+    T = np.eye(4)
+    T[:3, :3] = sp.so3_exp(angle * np.array(axis) / np.linalg.norm(axis))
+    T[:3, 3] = [0.3, -0.2, 0.5]
+    T.flat[entry] += delta
+    got = sp.rigid_transform_defect(T)
+    slow = sp.rigid_transform_defect(T.tolist())  # a list takes the array path
+    assert (got is None) == (slow is None), (got, slow)
+    if entry in (12, 13, 14, 15) and delta != 0.0 or (entry % 4 != 3 and entry < 12 and abs(delta) > 1e-6):
+        assert got is not None
+    mirror = T.copy()
+    mirror[:3, 0] *= -1
+    assert sp.rigid_transform_defect(mirror) is not None

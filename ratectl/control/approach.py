@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from ..model.limits import stopping_distance
-from ..spatial import so3_exp, so3_log
+from ..spatial import so3_exp_rows, so3_log_rows
 from .progress import ProgressCaps
 from .smoothing import ProgressProfile
 
@@ -152,18 +152,23 @@ class StraightApproach(Progress):
     def reset(self) -> None:
         """Forget the segment and the progress (the next target starts a new approach)."""
         self.target: np.ndarray | None = None
-        self.p0 = np.zeros(3)
-        self.R0 = np.eye(3)
-        self.dp = np.zeros(3)
-        self.r = np.zeros(3)
+        # the segment in plain floats (a target that moves starts a segment every period)
+        self._p0 = [0.0, 0.0, 0.0]
+        self._R0 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        self._dp = [0.0, 0.0, 0.0]
+        self._r = [0.0, 0.0, 0.0]
+        self._pose_at: tuple[float, np.ndarray] | None = None
         self.L = 0.0
         self.d = np.zeros(6)
+        self._d = [0.0] * 6
         self.w_prev: np.ndarray | None = None
         self.restart()
 
     def weighted_dot(self, a: np.ndarray, b: np.ndarray) -> float:
         """⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω for two twists (6,)."""
-        return float(a[:3] @ b[:3] + self._l2 * (a[3:] @ b[3:]))
+        a0, a1, a2, a3, a4, a5 = a.tolist()
+        b0, b1, b2, b3, b4, b5 = b.tolist()
+        return a0 * b0 + a1 * b1 + a2 * b2 + self._l2 * (a3 * b3 + a4 * b4 + a5 * b5)
 
     def weighted_norm(self, e: np.ndarray) -> float:
         """‖e‖_W for a twist or a pose error (6,)."""
@@ -179,29 +184,79 @@ class StraightApproach(Progress):
         """A new segment from ``T_from`` to ``target`` (4×4 poses); the progress starts at 0
         with the speed and acceleration of the motion ``twist``, ``accel`` (6,) projected on
         the new direction (never backwards)."""
-        self.target = target.copy()
-        self.p0 = T_from[:3, 3].copy()
-        self.R0 = T_from[:3, :3].copy()
-        self.dp = target[:3, 3] - self.p0
-        self.r = so3_log(target[:3, :3] @ self.R0.T)
-        L = math.sqrt(float(self.dp @ self.dp) + self._l2 * float(self.r @ self.r))
-        self.L = L
-        self.w_prev = None
-        if L > 0.0:
-            self.d = np.concatenate([self.dp, self.r]) / L
+        f = T_from.tolist()
+        self._segment(target, [f[0][3], f[1][3], f[2][3]], [f[0][:3], f[1][:3], f[2][:3]])
+        if self.L > 0.0:
             sd = max(self.weighted_dot(twist, self.d), 0.0)
             a = self.weighted_dot(accel, self.d)
             self.restart(sd, a if sd > 0.0 else max(a, 0.0))
         else:
-            self.d = np.zeros(6)
             self.restart()
 
-    def pose(self, s: float) -> np.ndarray:
-        """T(s), the reference pose at progress ``s`` (4×4)."""
-        T = np.eye(4)
+    def retarget_from_reference(self, target: np.ndarray) -> None:
+        """A new segment from the present reference pose T(s) to ``target``: the reference
+        goes on without a jump, its motion (ṡ, s̈ along the old direction d) projected on
+        the new direction d′ as ṡ′ = ṡ⟨d, d′⟩_W, s̈′ = s̈⟨d, d′⟩_W (never backwards).
+        Equal to ``retarget(target, pose(s), ṡ·d, s̈·d)``."""
+        d_old, sd, sdd = self._d, self.sd, self.sdd
+        p, R = self._pose_rows(self.s)
+        self._segment(target, p, R)
+        if self.L > 0.0:
+            d, l2 = self._d, self._l2
+            proj = (d_old[0] * d[0] + d_old[1] * d[1] + d_old[2] * d[2]
+                    + l2 * (d_old[3] * d[3] + d_old[4] * d[4] + d_old[5] * d[5]))
+            v = max(sd * proj, 0.0)
+            a = sdd * proj
+            self.restart(v, a if v > 0.0 else max(a, 0.0))
+        else:
+            self.restart()
+
+    def _segment(self, target: np.ndarray, p0: list[float], R0: list[list[float]]) -> None:
+        """The segment from (p0, R0) (floats) to ``target``: Δp, r = log(R_d R₀ᵀ), L, d."""
+        self.target = target.copy()
+        t = target.tolist()
+        self._p0, self._R0 = p0, R0
+        dp = self._dp = [t[0][3] - p0[0], t[1][3] - p0[1], t[2][3] - p0[2]]
+        a, b, c = R0
+        M = [[ti[0] * a[0] + ti[1] * a[1] + ti[2] * a[2], ti[0] * b[0] + ti[1] * b[1] + ti[2] * b[2],
+              ti[0] * c[0] + ti[1] * c[1] + ti[2] * c[2]] for ti in t[:3]]
+        x, y, z, th = so3_log_rows(M)
+        self._r = [x, y, z]
+        L = math.sqrt(dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2] + self._l2 * (x * x + y * y + z * z))
+        self.L = L
+        self.w_prev = None
+        self._pose_at = None
+        if L > 0.0:
+            k = 1.0 / L
+            self._d = [dp[0] * k, dp[1] * k, dp[2] * k, x * k, y * k, z * k]
+        else:
+            self._d = [0.0] * 6
+        self.d = np.array(self._d)
+
+    def _pose_rows(self, s: float) -> tuple[list[float], list[list[float]]]:
+        """(p, R) of T(s) as floats: p₀ + (s/L)Δp and exp((s/L)·r) R₀."""
         f = s / self.L if self.L > 0.0 else 1.0
-        T[:3, 3] = self.p0 + f * self.dp
-        T[:3, :3] = so3_exp(f * self.r) @ self.R0 if f != 0.0 else self.R0
+        p0, dp = self._p0, self._dp
+        p = [p0[0] + f * dp[0], p0[1] + f * dp[1], p0[2] + f * dp[2]]
+        if f == 0.0:
+            return p, self._R0
+        r = self._r
+        E = so3_exp_rows(f * r[0], f * r[1], f * r[2])
+        a, b, c = self._R0
+        R = [[e[0] * a[0] + e[1] * b[0] + e[2] * c[0], e[0] * a[1] + e[1] * b[1] + e[2] * c[1],
+              e[0] * a[2] + e[1] * b[2] + e[2] * c[2]] for e in E]
+        return p, R
+
+    def pose(self, s: float) -> np.ndarray:
+        """T(s), the reference pose at progress ``s`` (4×4; the same array for the same s
+        until the segment changes: do not write to it)."""
+        cached = self._pose_at
+        if cached is not None and cached[0] == s:
+            return cached[1]
+        p, R = self._pose_rows(s)
+        T = np.array([[R[0][0], R[0][1], R[0][2], p[0]], [R[1][0], R[1][1], R[1][2], p[1]],
+                      [R[2][0], R[2][1], R[2][2], p[2]], [0.0, 0.0, 0.0, 1.0]])
+        self._pose_at = (s, T)
         return T
 
     def w_prime(self, w: np.ndarray) -> np.ndarray | None:

@@ -682,7 +682,7 @@ class ResolvedRateController:
             elif self._pursuit:  # from the measured pose, the progress's own motion carried on
                 ap.retarget(target, T, ap.sd * ap.d, ap.sdd * ap.d)
             else:  # a new target: from the reference, which goes on without a jump
-                ap.retarget(target, ap.pose(ap.s), ap.sd * ap.d, ap.sdd * ap.d)
+                ap.retarget_from_reference(target)
         e = cyc.e = np.zeros(6)
         cyc.ep, cyc.eo = pose_error_into(e, target, T)
         e_ref = np.zeros(6)
