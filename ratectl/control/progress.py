@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..model.limits import Limits, braking_speed, braking_speed_any_dt
+from ..model.limits import Limits, braking_speed, braking_speed_any_dt_scalar, braking_speed_scalar
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -144,6 +144,19 @@ class ProgressLimits:
         # top of the progress and a bound that shrinks along the way must not meet the filter
         # at vmax with an acceleration it can no longer ramp out
         self._vcap = self.vmax * (1.0 - _VMAX_HEADROOM) if self._jerk_limited is not None else self.vmax
+        # the same numbers as Python floats: `caps` runs every period on a handful of joints,
+        # where plain arithmetic beats numpy's per-call cost
+        self._l_vcap = np.broadcast_to(self._vcap, (n,)).tolist()
+        self._l_share_a = np.broadcast_to(share_a, (n,)).tolist()
+        self._l_share_j = np.broadcast_to(self._share_j, (n,)).tolist()
+        self._l_curv_a = np.broadcast_to(self._curv_a, (n,)).tolist()
+        self._l_lower = np.broadcast_to(self.lower, (n,)).tolist()
+        self._l_upper = np.broadcast_to(self.upper, (n,)).tolist()
+        self._l_two_over_a = np.broadcast_to(self._two_over_a, (n,)).tolist()
+        self._l_slack = np.broadcast_to(self._jerk_slack, (n,)).tolist()
+        self._l_jerk = (None if self._jerk_limited is None else
+                        (np.broadcast_to(self._jerk_limited[0], (n,)).tolist(),
+                         np.broadcast_to(self._jerk_limited[1], (n,)).tolist()))
 
     def name(self, i: int) -> str:
         """The chain's name of joint ``i`` (quoted), for reasons."""
@@ -163,57 +176,79 @@ class ProgressLimits:
                 direction's exact joint speed |J⁺d|² in the weakest direction, for the
                 singularity look-ahead (None: no singularity bound).
         """
-        aw = np.abs(w)
-        moving = aw > _TINY_W
-        if not moving.any():
+        wl = w.tolist()
+        inf = math.inf
+        speed = accel = jerk = inf
+        jv = -1
+        vcap, share_a, share_j = self._l_vcap, self._l_share_a, self._l_share_j
+        invs = []
+        for i, wi in enumerate(wl):
+            awi = wi if wi >= 0.0 else -wi
+            if not awi > _TINY_W:
+                invs.append(0.0)
+                continue
+            inv = 1.0 / awi
+            invs.append(inv)
+            v = vcap[i] * inv
+            if v < speed:
+                speed, jv = v, i
+            x = share_a[i] * inv
+            if x < accel:
+                accel = x
+            x = share_j[i] * inv
+            if x < jerk:
+                jerk = x
+        if not any(invs):  # no joint moves along the direction
             return ProgressCaps(speed=_UNBOUNDED, accel=_UNBOUNDED, jerk=_UNBOUNDED)
-        inv = np.where(moving, 1.0 / np.where(moving, aw, 1.0), 0.0)
-        # velocity (np.where before the product: an absent limit is inf, and inf·0 is NaN)
-        v_each = np.where(moving, np.where(moving, self._vcap, 0.0) * inv, np.inf)
-        jv = int(np.argmin(v_each))
-        speed = float(v_each[jv])
-        binding, joint = ("velocity", jv) if math.isfinite(speed) else ("", -1)
-        accel = float(np.min(np.where(moving, np.where(moving, self._share_a, 0.0) * inv, np.inf)))
-        jerk = float(np.min(np.where(moving, np.where(moving, self._share_j, 0.0) * inv, np.inf)))
+        binding, joint = ("velocity", jv) if speed < inf else ("", -1)
         if w_prime is not None:
-            awp = np.abs(w_prime)
-            bent = awp > _TINY_W
-            if bent.any():
-                c_each = np.where(bent, np.sqrt(np.where(bent, self._curv_a, 0.0) / np.where(bent, awp, 1.0)),
-                                  np.inf)
-                jc = int(np.argmin(c_each))
-                if c_each[jc] < speed:
-                    speed, binding, joint = float(c_each[jc]), "curvature", jc
+            curv_a = self._l_curv_a
+            c_min, jc = inf, -1
+            for i, x in enumerate(w_prime.tolist()):
+                ax = x if x >= 0.0 else -x
+                if ax > _TINY_W:
+                    c = math.sqrt(curv_a[i] / ax)
+                    if c < c_min:
+                        c_min, jc = c, i
+            if c_min < speed:
+                speed, binding, joint = c_min, "curvature", jc
         free_speed = speed
         blocked_by = ""
         reason = ""
-        p_room, p_joint = math.inf, -1
+        p_room, p_joint = inf, -1
         # position limits: joints moving toward a limit brake in time at the share of amax
         if self._has_p:
-            room = np.where(w > 0.0, self.upper - q, q - self.lower)
-            finite = moving & np.isfinite(room)
-            room_f = np.where(finite, room, 0.0)
-            # the speed bound stops _LIMIT_MARGIN short (a jog of an arm that lags its command
-            # then does not press a joint onto its limit); the room ahead of an approach ends
-            # at the limit itself (a target may lie on it)
-            b = braking_speed_any_dt(room_f - _LIMIT_MARGIN, dt, self._two_over_a)
-            if self._jerk_limited is not None:  # and the jerk-limited stop fits as well
-                share_a, share_j = self._jerk_limited
-                rest = np.maximum(room_f - _LIMIT_MARGIN - self._jerk_slack * dt, 0.0)
-                b = np.minimum(b, braking_speed(rest, share_a, share_j))
-            p_each = np.where(finite, np.maximum(b, 0.0) * inv, np.inf)
-            r_each = np.where(finite, np.maximum(room_f, 0.0) * inv, np.inf)
-            jr = int(np.argmin(r_each))
-            p_room, p_joint = float(r_each[jr]), jr
-            jp = int(np.argmin(p_each))
-            if p_each[jp] < speed:
-                speed, binding, joint = float(p_each[jp]), "position", jp
+            ql = q.tolist()
+            lower, upper, two_over_a = self._l_lower, self._l_upper, self._l_two_over_a
+            jl = self._l_jerk
+            p_min, jp = inf, -1
+            for i, inv in enumerate(invs):
+                if inv == 0.0:
+                    continue
+                room = upper[i] - ql[i] if wl[i] > 0.0 else ql[i] - lower[i]
+                if not -inf < room < inf:
+                    continue
+                # the speed bound stops _LIMIT_MARGIN short (a jog of an arm that lags its
+                # command then does not press a joint onto its limit); the room ahead of an
+                # approach ends at the limit itself (a target may lie on it)
+                D = room - _LIMIT_MARGIN
+                b = braking_speed_any_dt_scalar(D, dt, two_over_a[i])
+                if jl is not None:  # and the jerk-limited stop fits as well
+                    b = min(b, braking_speed_scalar(max(D - self._l_slack[i] * dt, 0.0), jl[0][i], jl[1][i]))
+                x = (b if b > 0.0 else 0.0) * inv
+                if x < p_min:
+                    p_min, jp = x, i
+                x = (room if room > 0.0 else 0.0) * inv
+                if x < p_room:
+                    p_room, p_joint = x, i
+            if p_min < speed:
+                speed, binding, joint = p_min, "position", jp
                 blocked_by = "position" if speed <= 0.0 else ""
                 reason = self._limit_reason(w, jp, at=speed <= 0.0)
         caps = ProgressCaps(speed=speed, accel=min(accel, _UNBOUNDED), jerk=min(jerk, _UNBOUNDED),
                             binding=binding, blocked_by=blocked_by, joint=joint, reason=reason,
                             free_speed=free_speed)
-        if self._has_p and math.isfinite(p_room):
+        if p_room < inf:
             caps.room, caps.room_by = p_room, "position"
             caps.room_reason = self._limit_reason(w, p_joint, at=p_room <= 0.0)
         if exact is not None and sigma is not None and sigma < self.watch_sigma:

@@ -141,6 +141,14 @@ def braking_speed_any_dt(D: np.ndarray | float, dt: Any, two_over_a: Any):
     return 2.0 * Dp / (dt + np.sqrt(dt * dt + Dp * two_over_a)) + np.minimum(D, 0.0) / dt
 
 
+def braking_speed_any_dt_scalar(D: float, dt: float, two_over_a: float) -> float:
+    """`braking_speed_any_dt` of one joint in plain arithmetic (a per-cycle caller on a
+    handful of joints, where numpy's per-call cost dominates): the same formula."""
+    if D > 0.0:
+        return 2.0 * D / (dt + math.sqrt(dt * dt + D * two_over_a))
+    return D / dt
+
+
 def speed_toward_limit(D: np.ndarray, v_prev: np.ndarray | None, *, dt: float, two_over_a: Any,
                        adt: Any, vmax: Any) -> np.ndarray:
     """The position side of a joint's velocity box: the largest velocity toward a limit
@@ -263,6 +271,16 @@ def braking_speed(d: np.ndarray | float, amax: np.ndarray | float, jmax: np.ndar
     J = np.asarray(jmax, dtype=float)
     k = A * A / J
     return np.where(d <= A**3 / (J * J), np.cbrt(d * d * J), 0.5 * (-k + np.sqrt(k * k + 8.0 * A * d)))
+
+
+def braking_speed_scalar(d: float, amax: float, jmax: float) -> float:
+    """`braking_speed` of one joint in plain arithmetic: the same formula, for one
+    float d ≥ 0 (negative d counts as 0)."""
+    d = d if d > 0.0 else 0.0
+    k = amax * amax / jmax
+    if d <= amax * amax * amax / (jmax * jmax):
+        return (d * d * jmax) ** (1.0 / 3.0)
+    return 0.5 * (-k + math.sqrt(k * k + 8.0 * amax * d))
 
 
 def braking_speed_slope(d: np.ndarray | float, amax: np.ndarray | float,

@@ -5,12 +5,16 @@ while already braking."""
 import math
 
 import numpy as np
-from hypothesis import given
+import pytest
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ratectl.model.limits import (
+    braking_speed,
     braking_speed_any_dt,
+    braking_speed_any_dt_scalar,
     braking_speed_discrete,
+    braking_speed_scalar,
     speed_toward_limit,
     stopping_distance,
 )
@@ -79,3 +83,15 @@ def test_exact_stopping_distance_while_braking_equals_ruckigs_stop():
         assert d >= fine - 1e-12
         assert d <= fine + 1e-6 * (1 + fine) + v * tr.duration / 2000  # sampling resolution
         assert d <= float(stopping_distance(v, a0, A, J)) + 1e-15  # the default over-estimates
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(-1.0, 5.0), st.sampled_from([1e-4, 1e-3, 4e-3, 0.05]), st.floats(1e-3, 1e4),
+       st.floats(1e-2, 1e7) | st.just(1e300))
+def test_scalar_braking_speeds_are_the_array_formulas(D, dt, a, j):
+    """The plain-float forms the per-cycle progress bounds use give the array forms' values."""
+    with np.errstate(over="ignore"):  # J² of an absent jerk limit (1e300) is inf: the same branch
+        any_dt = float(braking_speed_any_dt(np.array([D]), dt, 2.0 / a)[0])
+        braking = float(braking_speed(D, a, j))
+    assert braking_speed_any_dt_scalar(D, dt, 2.0 / a) == pytest.approx(any_dt, rel=1e-12, abs=1e-300)
+    assert braking_speed_scalar(D, a, j) == pytest.approx(braking, rel=1e-12, abs=1e-300)
