@@ -47,6 +47,7 @@ __all__ = ['QP']
 
 
 _dposv = _lapack.dposv
+_dpotrs = _lapack.dpotrs
 
 _KKT_TOL = 1e-9  # accepted scaled KKT violation (see kkt_violation)
 
@@ -126,6 +127,11 @@ class QP(Solver):
         self._reg: dict[int, np.ndarray] = {}
         self._reg_small: dict[int, bool] = {}  # the regulariser's entries are below 1e300
         self._sigma_ref = _SigmaReference()  # the last exact σ_min, for sigma_min_at_least
+        # the last J's objective terms and P's Cholesky factor: a control cycle solves twice
+        # with the same J (the direction of a progress, then the command), and the second
+        # solve only needs b = Jᵀξ and two triangular solves ((entries, shape, P, σ, factor))
+        self._terms: tuple | None = None
+        self._factor: np.ndarray | None = None  # P's factor for this solve, when known
         self._pd = self._lam2 > 0 or (self.objective is not None and self.objective_weight > 0)
         self._dls = DLS(damping=max(self.damping, 1e-6), velocity_policy=None,
                         task_weights=task_weights, joint_weights=joint_weights)
@@ -300,10 +306,16 @@ class QP(Solver):
             d = np.full(n, self._lam2) if self._wq is None else self._lam2 * self._wq
             reg = self._reg[n] = np.diag(d)
             self._reg_small[n] = bool(np.all(d < 1e300))
+        self._factor = None
         if self._rows is None and self._reg_small[n]:
             # unweighted J, checked by _check_problem: ‖J‖²_F + ‖ξ‖² < 1e290 bounds every
             # entry of JᵀJ and Jᵀξ by 1e290 (Cauchy–Schwarz), so P and b are finite and the
             # products cannot overflow (no floating-point state to set, no check to make)
+            terms = self._terms
+            if (self.objective is None and terms is not None and terms[1] == J.shape
+                    and terms[0] == entries):  # the same J as the last solve: P, σ, P's factor
+                self._factor = terms[4]
+                return terms[3], terms[2], xiw.dot(Jw)
             JtJ = Jw.T.dot(Jw)
             P = JtJ + reg
             b = xiw.dot(Jw)
@@ -332,9 +344,14 @@ class QP(Solver):
         if Jw is not J:
             entries = Jw.ravel().tolist()
         if n <= Jw.shape[0]:
-            return _LazySigma(JtJ, None, self._sigma_ref, shape=Jw.shape, entries=entries), P, b
-        return _LazySigma(None, Jw.copy() if Jw is J else Jw, self._sigma_ref, shape=Jw.shape,
-                          entries=entries), P, b
+            sigma = _LazySigma(JtJ, None, self._sigma_ref, shape=Jw.shape, entries=entries)
+        else:
+            sigma = _LazySigma(None, Jw.copy() if Jw is J else Jw, self._sigma_ref, shape=Jw.shape,
+                               entries=entries)
+        # remembered for a next solve with the same J (its factor once `_shortcut` has it)
+        self._terms = ((entries, J.shape, P, sigma, None)
+                       if self.objective is None and self._rows is None and self._reg_small[n] else None)
+        return sigma, P, b
 
     def _shortcut(self, P: np.ndarray, b: np.ndarray, lo: np.ndarray | None, hi: np.ndarray | None,
                   G: np.ndarray | None, h: np.ndarray | None) -> tuple[Any, Any, str, int, float]:
@@ -345,7 +362,14 @@ class QP(Solver):
         status, niter, slack = "", 0, math.inf
         if not (self.shortcut and self._pd):
             return qd, held, status, niter, slack
-        _, x0, info0 = _dposv(P, b)
+        factor = self._factor
+        if factor is not None:  # P factored by the last solve (the same J): two triangular solves
+            x0, info0 = _dpotrs(factor, b)
+        else:
+            factor, x0, info0 = _dposv(P, b)
+            terms = self._terms
+            if info0 == 0 and terms is not None and terms[2] is P:
+                self._terms = (*terms[:4], factor)
         if info0 != 0:
             return qd, held, status, niter, slack
         lists = None
