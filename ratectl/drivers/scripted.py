@@ -4,6 +4,7 @@ The arm integrates the commanded joint velocity exactly over wall-clock time,
 
     q(t) = q_k + q̇_k · (t − t_k)          (t_k: time of the last command q̇_k),
 
+(a joint commanded slower than its ``dead_band`` stands still: static friction)
 and serves it through the `Driver` protocol, with faults that can
 be switched on at given times: slow reads, dropped samples, a frozen (stale) server, NaN
 in the measurement, and a connection that dies. It is also the shortest complete driver —
@@ -44,6 +45,9 @@ class ScriptedDriver:
         freeze_joint: ``(j, t)``: from time t on, joint j (0-based) no longer moves, whatever
             is commanded — a stalled joint, a robot that does not follow its command; it is
             measured standing still (q̇ = 0).
+        dead_band: [rad/s or m/s], a number or one per joint: a joint commanded slower than
+            this does not move (static friction a small velocity command cannot break, as on
+            a real arm); it is measured standing still.
         fail_after: from this time on ``read()`` and ``command()`` raise a bare
             ``ConnectionResetError`` — deliberately *not* a ratectl error, as a careless driver
             would, so that tests can check the loop contains it.
@@ -66,6 +70,7 @@ class ScriptedDriver:
         nan_after: float | None = None,
         fail_after: float | None = None,
         freeze_joint: tuple[int, float] | None = None,
+        dead_band: ArrayLike = 0.0,
         seed: int = 0,
     ) -> None:
         if not isinstance(chain, Chain):
@@ -112,6 +117,16 @@ class ScriptedDriver:
                 raise InputError(f"freeze_joint: joint index must be in 0..{chain.dof - 1}, got {j}",
                                  argument="freeze_joint", value=freeze_joint)
             self.freeze_joint = (j, t_freeze)
+        try:
+            if isinstance(dead_band, str | bytes) or np.iscomplexobj(dead_band):
+                raise TypeError("dead_band")
+            band = np.broadcast_to(np.asarray(dead_band, dtype=float), (chain.dof,)).copy()
+        except (TypeError, ValueError, OverflowError):
+            band = np.full(chain.dof, np.nan)
+        if not np.all(np.isfinite(band)) or np.any(band < 0.0):
+            raise InputError(f"dead_band must be a non-negative speed [rad/s or m/s], one or one per joint "
+                             f"({chain.dof}), got {dead_band!r}"[:200], argument="dead_band", value=dead_band)
+        self.dead_band = band
         self._rng = np.random.default_rng(int(seed))
         self._last: RobotState | None = None
         self.commands: list[tuple[float, np.ndarray]] = []
@@ -128,20 +143,25 @@ class ScriptedDriver:
             self._t0 = now
         return now - self._t0
 
+    def _moving(self) -> np.ndarray:
+        """The velocity the joints move at: the command, zero within the dead band."""
+        return np.where(np.abs(self._qd) < self.dead_band, 0.0, self._qd)
+
     def _advance(self, t: float) -> None:
         """Integrate the commanded velocity up to time t (a frozen joint stands still)."""
         if self._t_cmd is not None and t > self._t_cmd:
-            moved = self._qd * (t - self._t_cmd)
+            v = self._moving()
+            moved = v * (t - self._t_cmd)
             if self.freeze_joint is not None:
                 j, t_f = self.freeze_joint
-                moved[j] = self._qd[j] * max(0.0, min(t, t_f) - self._t_cmd)
+                moved[j] = v[j] * max(0.0, min(t, t_f) - self._t_cmd)
             self._q = self._q + moved
         self._t_cmd = t
 
     def _measured_qd(self, t: float) -> np.ndarray:
+        qd = self._moving()
         if self.freeze_joint is None or t < self.freeze_joint[1]:
-            return self._qd
-        qd = self._qd.copy()
+            return qd
         qd[self.freeze_joint[0]] = 0.0
         return qd
 

@@ -68,6 +68,7 @@ from ..planning import Governor, GovernorPlan
 from ..singularity import analyze
 from ..spatial import pose_error, rigid_transform_defect
 from .following import FollowWatch as _FollowWatch
+from .integral import GapIntegral
 from .record import Execution
 from .reference import PathReference
 
@@ -332,6 +333,14 @@ def _govern(
         ref.limit = ref.progress.duration + settle
 
 
+def _integral(integral: object, n: int) -> GapIntegral | None:
+    """The integral action of a path run (``integral`` checked), or None when switched off."""
+    if isinstance(integral, bool | np.bool_):
+        return GapIntegral(n) if integral else None
+    gain = _positive("integral", integral, allow_zero=True, unit="[1/s]")
+    return GapIntegral(n, gain=gain) if gain > 0.0 else None
+
+
 # ---------------------------------------------------------------------- run
 def run(
     driver: Driver,
@@ -350,6 +359,7 @@ def run(
     governor: Governor | bool | None = True,
     path_tolerance: tuple[float, float] = (1e-3, math.radians(0.5)),
     follow_window: float = 0.5,
+    integral: bool | float | ArrayLike = True,
 ) -> Execution:
     """Run the resolved-rate controller on a robot in real time; returns an `Execution`.
 
@@ -385,6 +395,10 @@ def run(
             start to end to count as completed (measured on the measured poses).
         follow_window: the window [s] over which commanded and measured motion are compared
             (`FollowWatch`); 0 switches the check off.
+        integral: a path run's integral action on the joints' tracking gap (`GapIntegral`:
+            closes the steady-state error friction leaves, with anti-windup): True (default,
+            K_I = 10 /s), a gain K_I [1/s], or False (proportional only). Target and twist runs
+            have none.
 
     Returns:
         An `Execution` with source ``"run"``: ``q``/``q_measured`` the measured joint
@@ -395,6 +409,7 @@ def run(
         robot's stamps, loop periods and overruns. ``info`` (a read-only mapping) holds
         ``plan`` (a path's `GovernorPlan`, or None), ``twist_linear_error`` and
         ``twist_angular_error`` (a twist stream: measured J q̇ against the stream, per cycle),
+        ``gap_correction`` (a path run: the integral action's joint correction per cycle, (K, n)),
         ``reason`` (why the run ended), ``halt_delay`` (watchdog: time from the last fresh
         state to the halt decision [s]), ``timing`` (per-cycle read, control, command and
         total work times [s]) and ``stop_error`` (if ``driver.stop()`` failed).
@@ -428,6 +443,7 @@ def run(
     _warm_up(ctrl, ref, state0, period, controller)
     _govern(ref, chain, state0.q, period, governor, ctrl, duration, settle)
     show = status_line if status_line is not None else (_is_tty(sys.stderr) and ref.limit > 2.0)
+    pi = _integral(integral, chain.dof) if ref.mode == "path" else None
     loop = _Loop(
         driver,
         ctrl,
@@ -438,6 +454,7 @@ def run(
         tolerance=(pos_tol, ori_tol),
         line=_StatusLine(bool(show)),
         follow_window=follow_window,
+        integral=pi,
     )
     loop.run()
     path_tol = (float(path_tolerance[0]), float(path_tolerance[1]))
@@ -470,8 +487,12 @@ class _Loop:
         tolerance: tuple[float, float],
         line: _StatusLine,
         follow_window: float = 0.5,
+        integral: GapIntegral | None = None,
     ) -> None:
         self.driver, self.ctrl, self.ref, self.state0, self.line = driver, ctrl, ref, state0, line
+        self.integral = integral
+        self.settled = False  # the last fresh step was on the end pose within tolerance
+        self.gap_u: list[np.ndarray] = []  # the integral correction of each cycle
         self.watch = _FollowWatch(driver.chain, follow_window)
         self.period, self.timeout, self.tolerance = period, timeout, tolerance
         self.n = n = driver.chain.dof
@@ -545,6 +566,7 @@ class _Loop:
         self.Td.append(self.ref.Td)
         self.s.append(self.ref.s)
         self.fresh.append(fresh)
+        self.gap_u.append(self.integral.correction if self.integral is not None else self.zero)
 
     def run(self) -> None:
         """Cycle until an end condition; on every way out stop the robot and note why."""
@@ -658,7 +680,9 @@ class _Loop:
     def _watchdog(self, state: RobotState, start: float, t_read: float) -> None:
         """No fresh state for longer than the timeout: record a halted cycle and end."""
         self.halt_delay = start - self.last_fresh_wall
-        self.reason_now = "watchdog: no fresh state"
+        # no command is sent on this cycle: its zero row is the driver's stop, not a controller command
+        self.reason_now = (f"watchdog: no fresh state for {self.halt_delay * 1e3:.1f} ms; no command sent, "
+                           "the robot is stopped by driver.stop()")
         t_halt = max(self.t_prev, self.t_fresh + self.halt_delay)
         self.record(state, self.zero, self.zero, "halted", False, t_halt)
         self.timing.append((t_read - start, 0.0, 0.0, time.perf_counter() - start))
@@ -686,13 +710,23 @@ class _Loop:
             return None
         if not finite and not self.halting:
             self.halting = f"non-finite measured state at t = {t:.4g} s (q, q̇ or stamp)"
+        qd_ff, pi = self.ref.qd_ff, self.integral
+        if pi is not None and not self.halting and self.ref.settle_start is not None:
+            # on the end pose, the gap's correction is the joint feed-forward: every limit holds
+            # over the total
+            pi.sent(self.qd_cmd, dt)
+            u = pi.update(q, t, self.status, settled=self.settled) if fresh and finite else pi.correction
+            if u.any():
+                qd_ff = u if qd_ff is None else qd_ff + u
         try:
-            return self.ctrl.step(
-                q, target=self.ref.Td, twist=xi, qd_ff=self.ref.qd_ff, qdd_ff=self.ref.qdd_ff, dt=dt
-            )
+            cmd = self.ctrl.step(q, target=self.ref.Td, twist=xi, qd_ff=qd_ff, qdd_ff=self.ref.qdd_ff, dt=dt)
         except Exception as exc:
             self._end(f"the controller raised {type(exc).__name__}: {exc}", "halted", recorded=False)
             return None
+        if fresh:
+            self.settled = self.ref.on_end_pose and cmd.position_error <= self.tolerance[0] \
+                and cmd.orientation_error <= self.tolerance[1]
+        return cmd
 
     def _finished(self, t: float, cmd: Command) -> bool:
         """The end conditions, checked after a fresh cycle: a halt come to rest, the end pose
@@ -900,6 +934,8 @@ def _execution(
         "path_tolerance": path_tolerance if ref.mode == "path" else None,
         **end,
         **(_twist_tracking(chain, q, qd_measured, loop.xi) if ref.mode == "twist" else {}),
+        **({"gap_correction": np.array(loop.gap_u, dtype=float).reshape(-1, n)}
+           if ref.mode == "path" else {}),
     }
     statuses = tuple(loop.statuses)
     if loop.outcome in ("halted", "interrupted") and statuses and statuses[-1] != "halted":

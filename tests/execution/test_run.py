@@ -82,6 +82,9 @@ def test_watchdog_halts_within_timeout_plus_one_period(arm):
     ex = rc.run(drv, twist=np.array([0.02, 0, 0, 0, 0, 0]), rate_hz=rate, timeout=timeout, duration=5.0)
     assert not ex.completed
     assert ex.statuses[-1] == "halted" and "watchdog" in ex.message
+    # the last row is the driver's stop, not a command of the controller: its reason says so
+    assert "no command sent" in ex.reasons[-1] and "driver.stop()" in ex.reasons[-1]
+    assert not any("no command sent" in r for r in ex.reasons[:-1])
     delay = ex.info["halt_delay"]
     # decided at the first cycle after the timeout: within timeout + that cycle's period, which is
     # one period unless the OS kept the process waiting

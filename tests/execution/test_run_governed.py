@@ -202,3 +202,47 @@ def test_the_record_of_a_target_and_a_twist_run():
     lin = ex2.info["twist_linear_error"]
     assert lin.shape == ex2.t.shape and np.nanmedian(lin) < 5e-3  # the scripted arm tracks
     assert len(ex2.reasons) == len(ex2.kinds) == len(ex2.statuses) == len(ex2.t)
+
+
+def _drop_and_turn(arm, q0):
+    """A 15 cm line with a 5 cm drop and a 20° turn about the tool axis, from fk(q0)."""
+    T0 = arm.fk(q0)
+    T1 = T0.copy()
+    T1[:3, 3] += [0.0, 0.15, -0.05]
+    c, s = math.cos(math.radians(20.0)), math.sin(math.radians(20.0))
+    T1[:3, :3] = T0[:3, :3] @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return rc.paths.Line(T0, T1, speed=0.1, acceleration=0.5)
+
+
+def test_integral_action_closes_the_gap_friction_leaves():
+    # every joint has a 0.02 rad/s dead band (static friction): on the end pose the proportional
+    # command falls inside it and the arm stops short; the integral of the joints' tracking gap
+    # breaks them free
+    arm = rc.robots.panda()
+    q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
+    line = _drop_and_turn(arm, q0)
+    tol = (1e-4, 1e-3)
+    ex = rc.run(ScriptedDriver(arm, q0, dead_band=0.02), path=line, rate_hz=RATE, tolerance=tol)
+    assert ex.completed, ex.summary()
+    assert ex.info["end_position_error"] <= tol[0] and ex.info["end_orientation_error"] <= tol[1]
+    u = ex.info["gap_correction"]
+    assert u.shape == ex.qd.shape and np.abs(u).max() > 0.0
+    # within the clamp: K_I · 5 mrad
+    assert np.abs(u).max() <= 10.0 * 5e-3 + 1e-12
+    # the correction acts on the end pose only: none while the path is tracked
+    assert not np.any(u[ex.t < line.duration * 0.9])
+    acc = np.abs(np.diff(ex.qd, axis=0)) / np.diff(ex.t)[:, None]
+    assert np.all(acc <= arm.amax * (1 + 1e-9)) and np.all(np.abs(ex.qd) <= arm.vmax * (1 + 1e-9))
+    # proportional only: the same arm stops short of the end pose and the run times out
+    ex0 = rc.run(ScriptedDriver(arm, q0, dead_band=0.02), path=line, rate_hz=RATE, tolerance=tol,
+                 integral=False)
+    assert ex0.info["outcome"] == "timeout" and "did not reach the end pose" in ex0.message, ex0.summary()
+    assert not np.any(ex0.info["gap_correction"])
+
+
+@pytest.mark.parametrize("bad", [-1.0, math.nan, "yes", [1.0, 2.0]])
+def test_integral_option_is_checked(bad):
+    arm = rc.robots.panda()
+    q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
+    with pytest.raises(rc.errors.InputError, match="integral"):
+        rc.run(ScriptedDriver(arm, q0), path=_drop_and_turn(arm, q0), rate_hz=RATE, integral=bad)
