@@ -244,7 +244,7 @@ def _describe_joints(tree: _Tree, path_joints: list[str], label: str, base_link:
         ax_el = el.find("axis")
         axis = floats(None if ax_el is None else ax_el.get("xyz"), 3, default=[1.0, 0.0, 0.0],
                       what=f"{what} <axis xyz>")
-        axis = unit_axis(axis, what)
+        axis = unit_axis(axis, what, label=label)
         qlim, vmax = _urdf_limits(el, jtype, what, label)
         chain_joints.append(movable_joint(_URDF_MOVABLE[str(jtype)], A @ O, axis, name=jname,
                                           qlim=qlim, vmax=vmax, what=what))
