@@ -510,7 +510,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "UR5e's wrist singularity (wrist_2 = 0) with the exact inverse, fixed-damping "
                     "DLS, adaptive DLS, the QP and ratectl's path-speed governor. Prints a table of "
                     "joint speed and acceleration relative to the limits, path error, duration and "
-                    "completion, and writes a plot. Takes about 10 s (mostly the four fixed-law runs).")
+                    "completion, and writes a plot.")
     sp.add_argument("--arm", default="ur5e", choices=sorted(_demo_arms()),
                     help="arm with a prepared scenario (default ur5e)")
     sp.add_argument("--out", default="ratectl_demo.png", help="plot file (default ratectl_demo.png)")
