@@ -387,8 +387,9 @@ def compare(arm: str = "ur5e", *, dt: float = 1e-3, methods: Sequence[str] = MET
     wall = time.perf_counter()
     scenario = wrist_line(arm, half_length=half_length, speed=speed)
     if progress is not None:
+        wrist = scenario.chain.joint_names[4]
         progress(f"scenario: {scenario.chain.name}, line of {2 * half_length:.2f} m at {speed} m/s, "
-                 f"closest |q5| = {scenario.min_q5:.4f} rad, exact inverse needs "
+                 f"closest |{wrist}| = {scenario.min_q5:.4f} rad, exact inverse needs "
                  f"{scenario.exact_speed:.1f} rad/s")
     results = []
     for m in methods:
@@ -426,8 +427,9 @@ def _verdict(r: MethodResult) -> str:
 def format_table(comparison: Comparison) -> str:
     """The comparison as a plain-text table (one row per method)."""
     sc = comparison.scenario
+    wrist = sc.chain.joint_names[4]
     head = (f"{sc.chain.name}: line of {sc.path.length:.2f} m at {sc.path.speed:g} m/s, constant "
-            f"orientation, closest |q5| = {sc.min_q5:.3f} rad (wrist singularity at q5 = 0); "
+            f"orientation, closest |{wrist}| = {sc.min_q5:.3f} rad (wrist singularity at {wrist} = 0); "
             f"exact inverse needs {sc.exact_speed:.0f} rad/s, vmax = {np.min(sc.chain.vmax):.2f} rad/s; "
             f"dt = {comparison.dt * 1e3:g} ms")
     cols = ("method", "max|qd|/vmax", "max|qdd|/amax", "path err [mm]", "orient err [deg]",
@@ -494,18 +496,20 @@ def plot_comparison(comparison: Comparison, path: str | os.PathLike[str]) -> str
     ax_e.set_title("position error" + (f" ({', '.join(low)}: below 1e-4 mm)" if low else ""))
     ax_o.set_ylabel("orientation error [deg]")
     ax_o.set_title("orientation error (the path keeps it constant)")
-    ax_q.set_ylabel("q4 [rad]")
-    ax_q.set_title("wrist joint 4 (turns by ~π past the singularity)")
+    names = sc.chain.joint_names
+    ax_q.set_ylabel(f"{names[3]} [rad]")
+    ax_q.set_title(f"{names[3]} (turns by ~π past the singularity)")
     ax_q5.axhline(0.0, color="k", ls=":", lw=1)
-    ax_q5.set_ylabel("q5 [rad]")
-    ax_q5.set_title("wrist joint 5 (singular at 0)")
+    ax_q5.set_ylabel(f"{names[4]} [rad]")
+    ax_q5.set_title(f"{names[4]} (singular at 0)")
     ax_s.set_ylabel("progress along the line (0 … 1)")
     ax_s.set_title("progress (the governor takes longer)")
     for ax in axes.ravel():
         ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)
     ax_v.legend(fontsize=8)
-    fig.suptitle(f"{sc.chain.name}: line past the wrist singularity (closest |q5| = {sc.min_q5:.3f} rad)")
+    fig.suptitle(f"{sc.chain.name}: line past the wrist singularity "
+                 f"(closest |{names[4]}| = {sc.min_q5:.3f} rad)")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

@@ -148,13 +148,16 @@ def _number(w: str) -> float:
 
 
 def _fmt_matrix(M, *, rows=None, cols=None, prec: int = 4) -> str:
+    """``M`` as a text table; ``rows`` and ``cols`` label its rows and columns (joint names,
+    ``v_x`` …); each column is as wide as its widest label or number."""
     M = np.asarray(M, dtype=float)
-    width = prec + 6
+    width = max([prec + 6, *(len(c) + 2 for c in cols or ())])
+    lead = max([5, *(len(r) + 1 for r in rows or ())])
     lines = []
     if cols is not None:
-        lines.append(" " * 5 + "".join(c.rjust(width) for c in cols))
+        lines.append(" " * lead + "".join(c.rjust(width) for c in cols))
     for i, row in enumerate(M):
-        label = (rows[i] if rows is not None else "").ljust(5)
+        label = (rows[i] if rows is not None else "").ljust(lead)
         lines.append(label + "".join(f"{v:{width}.{prec}f}" for v in row))
     return "\n".join(lines)
 
@@ -228,7 +231,7 @@ def _cmd_jacobian(args) -> int:
     print(_fmt_matrix(T))
     where = "tool origin" if point is None else f"tool-frame point {point.tolist()} m"
     print(f"\ngeometric Jacobian: rows [v; w] in {args.frame} axes, linear rows at the {where}")
-    cols = [f"q{i + 1}" + ("(P)" if p else "") for i, p in enumerate(chain.prismatic)]
+    cols = [name + (" (P)" if p else "") for name, p in zip(chain.joint_names, chain.prismatic, strict=True)]
     print(_fmt_matrix(J, rows=_ROW_NAMES, cols=cols))
     s = np.linalg.svd(J, compute_uv=False)
     print(f"\nsingular values: {np.array2string(s, precision=4)}  (rank "
@@ -268,7 +271,7 @@ def _cmd_singularity(args) -> int:
               + np.array2string(np.asarray(r.weakest_direction_task), precision=3))
     if r.null_space.shape[1]:
         print("joint-space null space (columns):")
-        print(_fmt_matrix(r.null_space, rows=[f"q{i + 1}" for i in range(chain.dof)], prec=3))
+        print(_fmt_matrix(r.null_space, rows=list(chain.joint_names), prec=3))
     return 0
 
 
@@ -504,10 +507,10 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser(
         "demo", help="compare five methods on a line past a wrist singularity (the main demo)",
         description="Follow a straight line at constant orientation that passes 0.01 rad from the "
-                    "wrist singularity (q5 = 0) with the exact inverse, fixed-damping DLS, adaptive "
-                    "DLS, the QP and ratectl's path-speed governor. Prints a table of joint speed and "
-                    "acceleration relative to the limits, path error, duration and completion, and "
-                    "writes a plot. Takes about 10 s (mostly the four fixed-law runs).")
+                    "UR5e's wrist singularity (wrist_2 = 0) with the exact inverse, fixed-damping "
+                    "DLS, adaptive DLS, the QP and ratectl's path-speed governor. Prints a table of "
+                    "joint speed and acceleration relative to the limits, path error, duration and "
+                    "completion, and writes a plot.")
     sp.add_argument("--arm", default="ur5e", choices=sorted(_demo_arms()),
                     help="arm with a prepared scenario (default ur5e)")
     sp.add_argument("--out", default="ratectl_demo.png", help="plot file (default ratectl_demo.png)")

@@ -139,19 +139,29 @@ def axis_rotation(axis: ArrayLike) -> np.ndarray:
 MAX_LENGTH = 1e9
 
 
-def unit_axis(v: ArrayLike, what: str) -> np.ndarray:
+def unit_axis(v: ArrayLike, what: str, *, label: str | None = None, noun: str = "joint axis",
+              ) -> np.ndarray:
     """``v / ‖v‖``, scaled by max |v_i| first so that the norm cannot overflow or underflow
-    (an axis ``1e300 1e300 0`` is the unit vector (1, 1, 0)/√2)."""
+    (an axis ``1e300 1e300 0`` is the unit vector (1, 1, 0)/√2).
+
+    The one normalisation of a direction read from a model file (URDF and MJCF joint axes,
+    MJCF orientation vectors and quaternions). ``what`` names the element (``joint 'j1'``),
+    ``label`` the file, ``noun`` the value in the message.
+
+    Raises:
+        ImportModelError: ``v`` is zero, shorter than 1e-12 or not finite.
+    """
     v = np.asarray(v, dtype=float)
     big = float(np.max(np.abs(v))) if v.size else 0.0
+    where = what if label is None else f"{label}: {what}"
     if not (math.isfinite(big) and big > 0.0):
-        raise ImportModelError(f"{what}: the joint axis {v.tolist()} has zero length"
-                               if big == 0.0 else f"{what}: the joint axis {v.tolist()} is not finite",
+        raise ImportModelError(f"{where}: the {noun} {v.tolist()} has zero length"
+                               if big == 0.0 else f"{where}: the {noun} {v.tolist()} is not finite",
                                element=what)
     u = v / big
     n = float(np.linalg.norm(u))
     if big * n < 1e-12:
-        raise ImportModelError(f"{what}: the joint axis {v.tolist()} has (near) zero length "
+        raise ImportModelError(f"{where}: the {noun} {v.tolist()} has (near) zero length "
                                f"({big * n:.3g} < 1e-12)", element=what)
     return u / n
 

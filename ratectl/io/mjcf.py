@@ -98,6 +98,7 @@ def _compile(source):
     _inline_includes(root, directory, label, depth=0, budget=budget)
     _check_depth_after_includes(root, label)
     _strip_files(root)
+    _normalise_directions(root, label)
     try:
         xml = ET.tostring(root, encoding="unicode")
     except RecursionError:  # guarded by the depth check; kept as a last line of defence
@@ -236,6 +237,51 @@ def _strip_files(root: ET.Element) -> None:
         if el.tag in _FILE_ELEMENTS or any(_FILE_ATTRS.match(a) for a in el.attrib):
             raise ImportModelError(f"<{el.tag}> still names a file after stripping (internal error)",
                                    element=f"<{el.tag}>")
+
+
+#: Attributes that hold directions (or a quaternion) MuJoCo normalises when it compiles:
+#: the attribute, the number of values it holds, and where its vectors start and end.
+_DIRECTIONS = {
+    "axis": (3, ((0, 3),)),             # a joint axis
+    "zaxis": (3, ((0, 3),)),            # an orientation by its z axis
+    "axisangle": (4, ((0, 3),)),        # the axis of an axis-angle orientation
+    "xyaxes": (6, ((0, 3), (3, 6))),    # an orientation by its x and y axes
+    "quat": (4, ((0, 4),)),             # a quaternion
+}
+
+
+def _normalise_directions(root: ET.Element, label: str) -> None:
+    """Replace every direction and quaternion in the file by the unit vector `unit_axis`
+    makes of it, before MuJoCo sees it.
+
+    MuJoCo's own normalisation ``v / ‖v‖`` overflows for large components (a joint axis
+    ``1e300 1e300 0`` compiles to ``0 0 0``, a quaternion ``0 1e300 0 0`` to the identity);
+    `unit_axis` scales by the largest component first, so the URDF and MJCF readers give
+    one answer: (1, 1, 0)/√2. A positive factor changes no axis, orientation or rotation, so
+    the compiled model is MuJoCo's for every file it reads correctly. Values that are not
+    the right count of numbers are left for MuJoCo to report.
+
+    Raises:
+        ImportModelError: a direction or quaternion that is zero, shorter than 1e-12, or
+            not finite (the wording of the URDF reader).
+    """
+    for el in root.iter():
+        for attr, (count, spans) in _DIRECTIONS.items():
+            text = el.get(attr)
+            if text is None:
+                continue
+            try:
+                vals = [float(t) for t in text.split()]
+            except ValueError:
+                continue
+            if len(vals) != count:
+                continue
+            name = el.get("name")
+            what = f"{el.tag} {name!r}" if name else f"<{el.tag}>"
+            noun = "joint axis" if el.tag == "joint" and attr == "axis" else f"{attr!r} vector"
+            for a, b in spans:
+                vals[a:b] = unit_axis(vals[a:b], what, label=label, noun=noun).tolist()
+            el.set(attr, " ".join(repr(v) for v in vals))
 
 
 def _mj_name(model, objtype, i: int, kind: str) -> str:

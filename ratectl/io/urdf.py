@@ -15,7 +15,6 @@ name the element at fault (for example ``"joint 'finger_2'"``).
 
 from __future__ import annotations
 
-import math
 import os
 import pathlib
 import re
@@ -29,6 +28,7 @@ from ..errors import ImportModelError
 from ..spatial import rotation_from_rpy, transform
 from .description import (
     MAX_LENGTH,
+    SHAPES,
     JointDescription,
     ModelDescription,
     VisualDescription,
@@ -40,7 +40,7 @@ from .xml import float_attr, floats, parse_xml_safely, read_source
 if TYPE_CHECKING:
     from ..paths.base import Path
 
-__all__ = ["parse_urdf", "find_mesh"]
+__all__ = ["parse_urdf", "find_mesh", "mesh_candidates", "GEOMETRY_SHAPES"]
 
 _URDF_MOVABLE = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
 _URDF_UNSUPPORTED = {"floating": "a floating joint has 6 degrees of freedom",
@@ -244,7 +244,7 @@ def _describe_joints(tree: _Tree, path_joints: list[str], label: str, base_link:
         ax_el = el.find("axis")
         axis = floats(None if ax_el is None else ax_el.get("xyz"), 3, default=[1.0, 0.0, 0.0],
                       what=f"{what} <axis xyz>")
-        axis = unit_axis(axis, what)
+        axis = unit_axis(axis, what, label=label)
         qlim, vmax = _urdf_limits(el, jtype, what, label)
         chain_joints.append(movable_joint(_URDF_MOVABLE[str(jtype)], A @ O, axis, name=jname,
                                           qlim=qlim, vmax=vmax, what=what))
@@ -414,62 +414,117 @@ def _rgba(material: ET.Element | None) -> tuple[float, float, float, float] | No
     return (r, g, b, a)
 
 
-def _geometry(el: ET.Element, link: str, role: str, frame: int, T: np.ndarray, colours: dict,
-              directory: pathlib.Path | None) -> VisualDescription | None:
-    """One ``<visual>``/``<collision>`` element, or None when it cannot be drawn."""
+#: Shapes a URDF ``<geometry>`` may hold (``capsule`` is a common extension).
+GEOMETRY_SHAPES = ("mesh", "box", "cylinder", "sphere", "capsule")
+
+
+@dataclass(frozen=True)
+class _Geometry:
+    """One ``<visual>``/``<collision>`` element as the file gives it: ``origin`` (4×4, in
+    the link frame), ``shape`` (one of `GEOMETRY_SHAPES`), ``size`` (box sides; (radius,);
+    (radius, length); () for a mesh), and for a mesh its ``filename`` (as written, possibly
+    empty) and ``scale`` (3,)."""
+
+    origin: np.ndarray
+    shape: str
+    size: tuple[float, ...] = ()
+    filename: str | None = None
+    scale: np.ndarray | None = None
+
+
+def _read_geometry(el: ET.Element, what: str, label: str) -> _Geometry:
+    """The one reader of a link's ``<visual>`` or ``<collision>`` element (the viewer's
+    `VisualDescription` and the collision model's `CollisionElement` are built from it).
+
+    Raises:
+        ImportModelError: no ``<geometry>``, an unknown shape, a missing or bad number.
+    """
+    origin = _urdf_origin(el.find("origin"), what)
     geo = el.find("geometry")
     shape = None if geo is None else next(iter(geo), None)
     if shape is None:
-        return None
-    what = f"link {link!r} <{role}>"
+        raise ImportModelError(f"{label}: {what} has no <geometry>", element=what)
+    tag = shape.tag
+    if tag == "mesh":
+        scale = floats(shape.get("scale"), 3, default=[1.0, 1.0, 1.0], what=f"{what} <mesh scale>")
+        return _Geometry(origin=origin, shape=tag, filename=shape.get("filename") or "", scale=scale)
+    if tag not in GEOMETRY_SHAPES:
+        raise ImportModelError(f"{label}: {what} has geometry <{tag}>; allowed: "
+                               f"{', '.join(GEOMETRY_SHAPES)}", element=what)
+    attrs = {"box": ("size",), "sphere": ("radius",)}.get(tag, ("radius", "length"))
+    size: list[float] = []
+    for attr in attrs:
+        text = shape.get(attr)
+        if text is None:
+            raise ImportModelError(f"{label}: {what} <{tag}> has no {attr}", element=what)
+        size.extend(float(x) for x in floats(text, 3 if attr == "size" else 1, default=None,
+                                             what=f"{what} <{tag} {attr}>"))
+    return _Geometry(origin=origin, shape=tag, size=tuple(size))
+
+
+def _geometry(el: ET.Element, link: str, role: str, frame: int, T: np.ndarray, colours: dict,
+              directory: pathlib.Path | None) -> VisualDescription | None:
+    """One ``<visual>``/``<collision>`` element placed on the chain, or None when it cannot
+    be drawn (`_read_geometry` refuses it, or its shape is not one of `SHAPES`)."""
     try:
-        origin = T @ _urdf_origin(el.find("origin"), what)
-        filename = path = None
-        size: Any
-        if shape.tag == "mesh":
-            filename = shape.get("filename") or ""
-            size = floats(shape.get("scale"), 3, default=[1.0, 1.0, 1.0], what=f"{what} <mesh scale>")
-            found = find_mesh(filename, directory)
-            path = None if found is None else str(found)
-        elif shape.tag == "box":
-            size = floats(shape.get("size"), 3, default=[math.nan] * 3, what=f"{what} <box size>")
-        elif shape.tag == "cylinder":
-            size = [float_attr(shape, "radius", what=what), float_attr(shape, "length", what=what)]
-        elif shape.tag == "sphere":
-            size = [float_attr(shape, "radius", what=what)]
-        else:
-            return None
+        g = _read_geometry(el, f"link {link!r} <{role}>", "<URDF>")
     except ImportModelError:
         return None
-    if size is None or any(x is None for x in size) or not np.all(np.isfinite(np.asarray(size, float))):
+    if g.shape not in SHAPES:
         return None
+    path = None
+    size = g.size
+    if g.shape == "mesh":
+        assert g.filename is not None and g.scale is not None  # a mesh has both
+        found = find_mesh(g.filename, directory)
+        path = None if found is None else str(found)
+        size = tuple(float(x) for x in g.scale)
     material = el.find("material")
     rgba = _rgba(material)
     if rgba is None and material is not None:
         rgba = colours.get(material.get("name") or "")
-    return VisualDescription(link=link, role=role, frame=frame, origin=origin, shape=shape.tag,
-                             size=tuple(float(x) for x in size), filename=filename, path=path,
-                             rgba=rgba)
+    return VisualDescription(link=link, role=role, frame=frame, origin=T @ g.origin, shape=g.shape,
+                             size=size, filename=g.filename, path=path, rgba=rgba)
 
 
-def find_mesh(filename: str, directory: pathlib.Path | str | None = None) -> pathlib.Path | None:
+def find_mesh(filename: str, directory: pathlib.Path | str | None = None, *,
+              package_dirs: Any = ()) -> pathlib.Path | None:
     """The file a URDF mesh name refers to, or None when it is not found.
 
-    * ``package://PKG/REST``: ``REST`` inside the package directory ``PKG``, looked for
-      among the URDF's directory and its parents (a parent named ``PKG``, or a ``PKG``
-      folder inside one), then in the directories of ``ROS_PACKAGE_PATH``;
-    * ``file:///abs/path`` and absolute paths: as given;
-    * relative names: relative to the URDF's directory (None for a URDF given as text).
+    The places looked at, in order (`mesh_candidates`):
+
+    * ``package://PKG/REST``: ``PKG/REST`` and ``REST`` inside each of ``package_dirs``;
+      then ``REST`` inside the package directory ``PKG``, looked for among ``directory``
+      and its parents (a parent named ``PKG``, or a ``PKG`` folder inside one); then in
+      the directories of ``ROS_PACKAGE_PATH``;
+    * ``file:///abs/path`` and absolute paths: as given (``file://rel`` relative to
+      ``directory``);
+    * relative names: relative to ``directory`` (the URDF's; None for a URDF given as text).
 
     The file is looked up (``is_file``), never opened.
     """
+    for c in mesh_candidates(filename, directory, package_dirs=package_dirs):
+        try:
+            if c.is_file():
+                return c
+        except (OSError, ValueError):
+            continue
+    return None
+
+
+def mesh_candidates(filename: str, directory: pathlib.Path | str | None = None, *,
+                    package_dirs: Any = ()) -> list[pathlib.Path]:
+    """The paths `find_mesh` tries for ``filename``, in order (for messages that say where
+    a mesh was looked for)."""
     if not filename:
-        return None
+        return []
     candidates: list[pathlib.Path] = []
     if filename.startswith("package://"):
         pkg, _, rest = filename[len("package://"):].partition("/")
         if not pkg or not rest:
-            return None
+            return []
+        for d in package_dirs or ():
+            candidates += [pathlib.Path(d) / pkg / rest, pathlib.Path(d) / rest]
         roots: list[pathlib.Path] = []
         if directory is not None:
             d = pathlib.Path(directory).resolve()
@@ -479,18 +534,10 @@ def find_mesh(filename: str, directory: pathlib.Path | str | None = None) -> pat
             if r.name == pkg:
                 candidates.append(r / rest)
             candidates.append(r / pkg / rest)
-    elif filename.startswith("file://"):
-        candidates.append(pathlib.Path(filename[len("file://"):]))
-    else:
-        p = pathlib.Path(filename)
-        if p.is_absolute():
-            candidates.append(p)
-        elif directory is not None:
-            candidates.append(pathlib.Path(directory) / p)
-    for c in candidates:
-        try:
-            if c.is_file():
-                return c
-        except (OSError, ValueError):
-            continue
-    return None
+        return candidates
+    p = pathlib.Path(filename[len("file://"):] if filename.startswith("file://") else filename)
+    if p.is_absolute():
+        candidates.append(p)
+    elif directory is not None:
+        candidates.append(pathlib.Path(directory) / p)
+    return candidates

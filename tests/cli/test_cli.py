@@ -114,6 +114,41 @@ def test_prismatic_values_are_metres_with_deg():
     assert np.allclose(numbers(out.splitlines()[0]), [math.pi / 2, 0.3, 0.0], atol=1e-4)
 
 
+@pytest.mark.parametrize("arm", ["ur5e", "panda", "stanford", "rpr"])
+def test_jacobian_columns_are_headed_by_the_chains_joint_names(arm):
+    chain = rc.robots.__dict__[arm]()
+    code, out, err = run(["jacobian", arm, "--q", "mid"])
+    assert code == 0, err
+    lines = out.splitlines()
+    head = lines[next(i for i, line in enumerate(lines) if line.startswith("v_x")) - 1]
+    expected = [n + (" (P)" if p else "") for n, p in zip(chain.joint_names, chain.prismatic, strict=True)]
+    assert re.split(r"\s{2,}", head.strip()) == expected
+    # every column is as wide as its label: the numbers stay under their names
+    row = lines[lines.index(head) + 1]
+    for name in expected:
+        end = head.index(name) + len(name)
+        assert row[end - 1].isdigit(), (name, head, row)
+
+
+def test_urdf_joint_names_head_the_jacobian_and_the_null_space(tmp_path):
+    names = ["base_swivel", "a_very_long_shoulder_joint_name", "elbow"]
+    links = "".join(f'<link name="l{i}"/>' for i in range(4))
+    joints = "".join(f'<joint name="{n}" type="revolute"><parent link="l{i}"/><child link="l{i + 1}"/>'
+                     f'<origin xyz="0 0 0.3"/><axis xyz="{"0 1 0" if i == 1 else "0 0 1"}"/>'
+                     '<limit lower="-3" upper="3" velocity="1" effort="1"/></joint>'
+                     for i, n in enumerate(names))
+    f = tmp_path / "arm.urdf"
+    f.write_text(f'<robot name="three">{links}{joints}</robot>')
+    code, out, err = run(["jacobian", str(f), "--q", "0", "0.5", "0.5"])
+    assert code == 0, err
+    assert re.split(r"\s{2,}", out.splitlines()[[i for i, line in enumerate(out.splitlines())
+                                                 if line.startswith("v_x")][0] - 1].strip()) == names
+    code, out, err = run(["singularity", str(f), "--q", "0", "0", "0"])  # first and last axis on one line
+    assert code == 0, err
+    block = out.split("joint-space null space (columns):\n")[1].splitlines()
+    assert [line.split()[0] for line in block[:3]] == names
+
+
 # ---------------------------------------------------------------------------- singularity
 def test_singularity_names_the_wrist():
     code, out, err = run(["singularity", "ur5e", "--q", "0", "-1.2", "1.4", "-1.8", "0", "0.3"])
@@ -122,6 +157,8 @@ def test_singularity_names_the_wrist():
     assert "rank: 5 of 6" in out
     assert "lost task directions" in out
     assert "joint-space null space" in out
+    null_rows = out.split("joint-space null space (columns):\n")[1].splitlines()
+    assert [line.split()[0] for line in null_rows] == list(rc.robots.ur5e().joint_names)
 
 
 def test_singularity_regular_and_decoupled():
@@ -217,6 +254,9 @@ def test_demo_prints_the_table_and_writes_the_plot(demo_run):
     assert "max|qd|/vmax" in out and "path err [mm]" in out and "duration [s]" in out
     assert png.stat().st_size > 20_000
     assert "scenario:" in err                # progress on stderr
+    wrist = rc.robots.ur5e().joint_names[4]  # joints are named as the chain names them
+    assert f"closest |{wrist}| = " in out and f"closest |{wrist}| = " in err
+    assert "q5" not in out + err
 
 
 @pytest.mark.xdist_group("demo")

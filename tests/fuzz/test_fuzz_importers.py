@@ -13,6 +13,7 @@ directory (an audit hook records every ``open``).
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 import time
@@ -254,3 +255,67 @@ def test_urdf_deep_and_long_chains(fuzz):
     deep = "<robot>" + "<a>" * 5000 + "</a>" * 5000 + "</robot>"
     out = _import(fuzz, "urdf", lambda: rc.Chain.from_urdf(deep), None)
     assert isinstance(out, ImportModelError)
+
+
+# ------------------------------------------------- directions at every scale
+def _scaled(d, scale) -> str:
+    return " ".join(repr(float(x) * scale) for x in d)
+
+
+def test_joint_axes_at_every_scale_are_the_same_unit_vector_in_urdf_and_mjcf(fuzz):
+    """A joint axis means its direction: any positive multiple (1e-10 … 1e300) of it gives
+    the same joint in both readers, or (zero, tiny, infinite) the same refusal."""
+    @fuzz.settings(40)
+    @given(seed=st.integers(0, 2**32 - 1),
+           exponent=st.sampled_from([-300, -13, -10, 0, 10, 100, 200, 300, 307, 400]),
+           zeros=st.integers(0, 2))
+    def prop(seed, exponent, zeros):
+        r = np.random.default_rng(seed)
+        d = r.uniform(0.1, 1.0, 3) * r.choice([-1.0, 1.0], 3)
+        d[r.permutation(3)[:zeros]] = 0.0
+        scale = 10.0 ** exponent if exponent < 400 else math.inf
+        ax = _scaled(d, scale)
+        urdf = ('<robot name="r"><link name="a"/><link name="b"/><joint name="j1" type="continuous">'
+                f'<parent link="a"/><child link="b"/><axis xyz="{ax}"/></joint></robot>')
+        mjcf = (f'<mujoco><worldbody><body name="b"><joint name="j1" type="hinge" axis="{ax}"/>'
+                '<geom size="0.05"/></body></worldbody></mujoco>')
+        outs = [_import(fuzz, kind, lambda f=f, doc=doc: f(doc), None)
+                for kind, f, doc in (("urdf", rc.Chain.from_urdf, urdf), ("mjcf", rc.Chain.from_mjcf, mjcf))]
+        if exponent <= -13 or exponent >= 400:
+            for out in outs:
+                assert isinstance(out, ImportModelError) and out.element.startswith("joint 'j1'"), out
+                assert any(w in str(out) for w in ("zero length", "not finite", "finite numbers")), out
+            return
+        unit = d / np.linalg.norm(d)
+        for out in outs:
+            assert isinstance(out, rc.Chain), out
+            z = out.joint_axes(np.zeros(1))[0][0]
+            np.testing.assert_allclose(z, unit, atol=1e-12)
+
+    prop()
+
+
+_ORIENTATIONS = [("axisangle", [1.0, 1.0, 0.0], ["1"]), ("zaxis", [1.0, -2.0, 0.5], []),
+                 ("quat", [0.0, 1.0, 0.0, 0.0], []), ("quat", [0.5, 0.5, -0.5, 0.5], []),
+                 ("xyaxes", [1.0, 0.0, 0.0], ["0", "1", "0.2"])]
+
+
+@pytest.mark.parametrize("attr, vec, rest", _ORIENTATIONS)
+@pytest.mark.parametrize("exponent", [-10, 100, 300, 307])
+def test_mjcf_orientations_mean_the_same_at_every_scale(fuzz, attr, vec, rest, exponent):
+    """A body's ``axisangle``, ``zaxis``, ``quat`` or ``xyaxes`` scaled by a positive
+    factor is the same orientation (MuJoCo alone turns a huge one into the identity)."""
+    def arm(values: str | None) -> str:
+        orientation = "" if values is None else f'{attr}="{values}"'
+        return (f'<mujoco><worldbody><body name="b1" {orientation}>'
+                '<joint name="j1" type="hinge" axis="0 0 1"/><geom size="0.05"/>'
+                '<body name="b2" pos="0 0 0.3"><joint name="j2" type="hinge" axis="0 1 0"/>'
+                '<geom size="0.05"/></body></body></worldbody></mujoco>')
+
+    plain = " ".join([_scaled(vec, 1.0), *rest])
+    big = " ".join([_scaled(vec, 10.0 ** exponent), *rest])
+    ref = _import(fuzz, "mjcf", lambda: rc.Chain.from_mjcf(arm(plain)), None)
+    out = _import(fuzz, "mjcf", lambda: rc.Chain.from_mjcf(arm(big)), None)
+    q = np.array([0.3, -0.7])
+    np.testing.assert_allclose(out.fk(q), ref.fk(q), atol=1e-12)
+    assert not np.allclose(rc.Chain.from_mjcf(arm(None)).fk(q), ref.fk(q))  # not the identity

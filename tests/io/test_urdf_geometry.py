@@ -90,3 +90,64 @@ def test_text_sources_keep_geometry_but_find_no_relative_mesh():
     meshes = [v for v in chain.visuals if v.shape == "mesh"]
     assert len(meshes) == 2 and all(v.path is None for v in meshes)
     assert rc.robots.ur5e().visuals == ()
+
+
+# ------------------------------------------- one reader for the viewer and the collision model
+COLLIDING = """<robot name="c">
+  <link name="a">
+    <collision><origin xyz="0.1 0 0" rpy="0 0 0.5"/><geometry><box size="0.1 0.2 0.3"/></geometry></collision>
+    <collision><geometry><sphere radius="0.04"/></geometry></collision>
+    <collision><origin xyz="0 0 0.2"/><geometry><cylinder radius="0.05" length="0.4"/></geometry></collision>
+    <collision><geometry><mesh filename="package://pkg/meshes/l2.dae" scale="2 2 2"/></geometry></collision>
+    <collision><geometry><mesh filename="meshes/base.stl"/></geometry></collision>
+  </link>
+  <link name="b"/>
+  <joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" velocity="1"/></joint>
+</robot>"""
+
+
+def test_the_viewer_and_the_collision_model_read_the_same_geometry(package):
+    from ratectl.io.urdf_geometry import urdf_collision_geometry
+
+    f = package.parent / "c.urdf"
+    f.write_text(COLLIDING)
+    elements = urdf_collision_geometry(f).elements
+    visuals = [v for v in rc.Chain.from_urdf(f).visuals if v.role == "collision"]
+    assert [e.kind for e in elements] == [v.shape for v in visuals] == ["box", "sphere", "cylinder",
+                                                                         "mesh", "mesh"]
+    for e, v in zip(elements, visuals, strict=True):
+        np.testing.assert_array_equal(e.origin, v.origin)      # link a is the base: frame 0, no offset
+        if e.kind == "mesh":
+            assert e.filename == v.path and tuple(e.scale) == v.size
+        else:
+            assert e.size == v.size
+    assert elements[0].size == (0.1, 0.2, 0.3) and elements[2].size == (0.05, 0.4)
+    assert tuple(elements[3].scale) == (2.0, 2.0, 2.0)
+
+
+@pytest.mark.parametrize("geometry, words", [
+    ("<box/>", "<box> has no size"),
+    ("<box size='1 2'/>", "expected 3"),
+    ("<sphere/>", "<sphere> has no radius"),
+    ("<cylinder radius='0.1'/>", "<cylinder> has no length"),
+    ("<cylinder radius='x' length='1'/>", "expected 1 numbers"),
+    ("<cone radius='1'/>", "allowed: mesh, box, cylinder, sphere, capsule"),
+    ("<mesh/>", "has no filename"),
+    ("<mesh filename='package://nowhere/m.stl'/>", "not found; looked in"),
+    ("", "has no <geometry>"),
+])
+def test_bad_collision_geometry_is_refused_with_a_message_and_left_out_of_the_drawing(geometry, words):
+    from ratectl.errors import ImportModelError
+    from ratectl.io.urdf_geometry import urdf_collision_geometry
+
+    doc = (f'<robot name="c"><link name="a"><collision><geometry>{geometry}</geometry></collision>'
+           '</link><link name="b"/><joint name="j" type="revolute"><parent link="a"/><child link="b"/>'
+           '<axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1"/></joint></robot>')
+    if not geometry:
+        doc = doc.replace("<geometry></geometry>", "")
+    with pytest.raises(ImportModelError, match="link 'a' <collision> 0") as exc:
+        urdf_collision_geometry(doc)
+    assert words in str(exc.value)
+    drawn = rc.Chain.from_urdf(doc).visuals      # drawing never refuses a model
+    assert all(v.shape == "mesh" for v in drawn) and len(drawn) == (geometry.startswith("<mesh") and 1)
