@@ -76,6 +76,6 @@ class FollowWatch:
             return ""
         j = int(np.argmax(np.where(bad, np.abs(cmd), -math.inf)))
         u = self.units[j]
-        return (f"the robot does not follow its command: joint {j + 1} ({self.names[j]}) moved "
+        return (f"the robot does not follow its command: joint {self.names[j]!r} moved "
                 f"{meas[j] * 1e3:.3g} {u} of {cmd[j] * 1e3:.3g} {u} commanded over the last "
                 f"{t - t0:.2f} s")

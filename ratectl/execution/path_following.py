@@ -123,7 +123,7 @@ def _validate(chain, path, q0, dt, controller):
     outside = np.flatnonzero((q < chain.lower) | (q > chain.upper))
     if outside.size:
         names = chain.joint_names
-        detail = "; ".join(f"joint {i + 1} ({names[i]}): q = {q[i]:.6g}, limits "
+        detail = "; ".join(f"joint {names[i]!r}: q = {q[i]:.6g}, limits "
                            f"[{chain.lower[i]:.6g}, {chain.upper[i]:.6g}]" for i in outside)
         raise InputError(f"q0 is outside the joint position limits ({detail}); start inside the "
                          "range", argument="q0", value=q0)
