@@ -125,6 +125,8 @@ def test_a_target_inside_the_arm_is_held_at_the_margin_and_reported(panda):
     assert cmd.status == "collision-avoidance"
     assert "holds back priority level(s) [0" in cmd.reason and " mm" in cmd.reason
     assert np.linalg.norm(cmd.solve.residuals[0]) > 0.01  # the tool is short of its target
-    # the tool has come to rest against the margin (the posture level may still move the
-    # joints the tool leaves free)
-    assert np.linalg.norm(np.ptp(np.array(tips[-250:]), axis=0)) < 2e-3
+    # the tool is held there: over the last 0.5 s it slides along the margin (the posture
+    # level still moves what the tool leaves free) but comes no nearer its target
+    gap = np.linalg.norm(np.array(tips[-250:]) - np.array([0.0, 0.0, 0.25]), axis=1)
+    assert gap[-1] > gap[0] - 2e-3
+    assert np.linalg.norm(np.ptp(np.array(tips[-250:]), axis=0)) < 1e-2
