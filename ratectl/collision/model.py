@@ -25,7 +25,6 @@ import numpy as np
 from ..arrays import read_only
 from ..checks import positive_number
 from ..errors import InputError
-from ..kinematics import shift_jacobian
 from .shapes import coal_geometry, import_coal
 
 if TYPE_CHECKING:
@@ -116,6 +115,12 @@ class CollisionModel:
         self._pi = np.array([i for i, _ in self.pairs], dtype=int)
         self._pj = np.array([j for _, j in self.pairs], dtype=int)
         self._rsum = np.array([self.shapes[i].radius + self.shapes[j].radius for i, j in self.pairs])
+        self._centre = np.array([s.centre for s in self.shapes], dtype=float).reshape(-1, 3)
+        self._radius = np.array([s.radius for s in self.shapes], dtype=float)
+        # the last distances computed (per pair) and the shapes' poses they are referred to
+        self._d0: np.ndarray | None = None
+        self._R0 = np.empty((0, 3, 3))
+        self._c0 = np.empty((0, 3))
 
     # ------------------------------------------------------------------ description
     @property
@@ -163,36 +168,91 @@ class CollisionModel:
                          for i, j in self.pairs])
 
     # ------------------------------------------------------------------ rows
+    def _lower_bounds(self, R: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """A lower bound (P,) of every pair's distance at the shapes' rotations R (S, 3, 3) and
+        bounding-sphere centres c (S, 3), from two facts:
+
+        * the bounding spheres: d ≥ |c_i − c_j| − r_i − r_j;
+        * the last distance computed, d₀ at rotations R⁰ and centres c⁰: a point of shape i
+          (within r_i of its centre) has moved by at most |c_i − c_i⁰| + r_i‖R_i − R_i⁰‖₂
+          since, with ‖R − R⁰‖₂ = ‖R − R⁰‖_F/√2 for two rotations, and the distance of two
+          shapes changes by at most the sum of their points' largest displacements:
+          d ≥ d₀ − δ_i − δ_j.
+        """
+        pi, pj = self._pi, self._pj
+        gap = np.sqrt(((c[pi] - c[pj]) ** 2).sum(axis=1)) - self._rsum
+        if self._d0 is None:
+            return gap
+        move = np.sqrt(((c - self._c0) ** 2).sum(axis=1)) \
+            + self._radius * np.sqrt(((R - self._R0) ** 2).sum(axis=(1, 2)) * 0.5)
+        return np.maximum(gap, self._d0 - move[pi] - move[pj])
+
     def rows(self, q: np.ndarray) -> CollisionRows:
-        """The damper rows ``G q̇ ≤ h`` at q for the pairs closer than the influence distance
-        (a bounding-sphere test skips the others)."""
+        """The damper rows ``G q̇ ≤ h`` at q for the pairs closer than the influence distance.
+
+        Only the pairs whose lower bound (`_lower_bounds`: bounding spheres, and the last
+        computed distance less how far the shapes have moved since) is below the influence
+        distance go to the geometry library; the model keeps those last distances, so one
+        model serves one loop (not thread-safe). Any q may follow any other: the bound is
+        computed from the poses, not from a time step.
+        """
         chain = self.chain
         n = chain.dof
-        poses = self._poses(q)
-        W = [self._world(s, poses) for s in self.shapes]
-        centres = np.array([T[:3, :3] @ s.centre + T[:3, 3] for T, s in zip(W, self.shapes, strict=True)])
+        coal = self._coal
+        shapes = self.shapes
+        fk = chain.fk
+        poses: dict[str | None, np.ndarray] = {link: fk(q, link=link) for link in self._links}
+        S = len(shapes)
+        W = np.empty((S, 4, 4))
+        for k, s in enumerate(shapes):
+            if s.link is None:
+                W[k] = s.obstacle.pose if s.obstacle is not None else s.placement
+            else:
+                W[k] = poses[s.link] @ s.placement
+        R = W[:, :3, :3]
+        c = np.einsum("kij,kj->ki", R, self._centre) + W[:, :3, 3]
+        lb = self._lower_bounds(R, c)
+        ds, di, xi = self.margin, self.influence, self.gain
+        near = np.flatnonzero(lb < di)
+        # every pair's bound is now referred to the current poses (d₀ ← the bound, exact
+        # below for the pairs computed now)
+        self._d0, self._R0, self._c0 = lb, R.copy(), c
+        d0 = lb
         jac: dict[str, np.ndarray] = {}
+        tf: dict[int, Any] = {}
+        req, res = self._req, self._res
         G, h, dist, names = [], [], [], []
         closest, closest_pair = np.inf, None
-        ds, di, xi = self.margin, self.influence, self.gain
-        gap = np.sqrt(((centres[self._pi] - centres[self._pj]) ** 2).sum(axis=1)) - self._rsum
-        for k in np.flatnonzero(gap <= di).tolist():
+        for k in near.tolist():
             i, j = self.pairs[k]
-            a, b = self.shapes[i], self.shapes[j]
-            d, p1, p2, nrm = self._distance(a, W[i], b, W[j])
+            a, b = shapes[i], shapes[j]
+            ta = tf.get(i)
+            if ta is None:
+                ta = tf[i] = coal.Transform3s(W[i, :3, :3], W[i, :3, 3])
+            tb = tf.get(j)
+            if tb is None:
+                tb = tf[j] = coal.Transform3s(W[j, :3, :3], W[j, :3, 3])
+            res.clear()
+            d = float(coal.distance(a.geometry, ta, b.geometry, tb, req, res))
+            d0[k] = d
             if d < closest:
                 closest, closest_pair = d, (a.name, b.name)
             if d >= di:
                 continue
+            nx, ny, nz = res.normal
+            nrm = np.array((nx, ny, nz))
             row = np.zeros(n)
-            for s, p, sign in ((a, p1, -1.0), (b, p2, 1.0)):
+            for s, p, sign in ((a, res.getNearestPoint1(), -1.0), (b, res.getNearestPoint2(), 1.0)):
                 if s.link is None:
                     continue
                 J = jac.get(s.link)
                 if J is None:
                     J = jac[s.link] = chain.jacobian(q, link=s.link)
-                Jp = shift_jacobian(J, p - poses[s.link][:3, 3])[:3]
-                row += sign * (nrm @ Jp)
+                # n̂ᵀ J_v(p) with J_v(p) = J_v(o) − [p − o]× J_ω: n̂ᵀJ_v(o) + ((p − o) × n̂)ᵀ J_ω
+                o = poses[s.link]
+                rx, ry, rz = p[0] - o[0, 3], p[1] - o[1, 3], p[2] - o[2, 3]
+                rxn = np.array((ry * nz - rz * ny, rz * nx - rx * nz, rx * ny - ry * nx))
+                row += sign * (nrm @ J[:3] + rxn @ J[3:])
             G.append(-row)  # −ḋ ≤ ξ (d − d_s)/(d_i − d_s)
             h.append(xi * (d - ds) / (di - ds))
             dist.append(d)

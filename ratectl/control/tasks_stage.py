@@ -147,14 +147,19 @@ class TasksStage:
         flags: list[str] = []
         reasons: list[str] = []
         if h.size and res.rows_active.any():
-            act = np.flatnonzero(res.rows_active)
-            worst = int(act[np.argmin(np.asarray(dist)[act])])
-            flags.append("collision-avoidance")
-            blocked = [p for p, r in zip(priorities, res.residuals.tolist(), strict=True)
-                       if r > 1e-6 * (1.0 + float(np.abs(levels[0].b).max()))]
-            reasons.append(f"{act.size} collision damper row(s) active, closest {pairs[worst][0]} – "
-                           f"{pairs[worst][1]} at {dist[worst] * 1e3:.3g} mm"
-                           + (f"; level(s) {blocked} held back" if blocked else ""))
+            # held back = the level does worse than with the box alone (one more cascade,
+            # only in the cycles where a damper row is active)
+            free = self.cascade.solve(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
+            scale = 1.0 + float(np.abs(levels[0].b).max())
+            blocked = [p for p, r, r0 in zip(priorities, res.residuals.tolist(), free.residuals.tolist(),
+                                             strict=True) if r > r0 + 1e-6 * scale]
+            if blocked:
+                act = np.flatnonzero(res.rows_active)
+                worst = int(act[np.argmin(np.asarray(dist)[act])])
+                flags.append("collision-avoidance")
+                reasons.append(f"collision avoidance holds back priority level(s) {blocked}: "
+                               f"{act.size} damper row(s) active, closest {pairs[worst][0]} – "
+                               f"{pairs[worst][1]} at {dist[worst] * 1e3:.3g} mm")
         if res.relaxed.any():
             flags.append("collision-avoidance")
             reasons.append(f"a collision damper could not be met within the joint limits this period "
@@ -162,20 +167,18 @@ class TasksStage:
         active: tuple[str, ...] = ()
         if res.box_active.any() and limits is not None:
             vb = joint_velocity_bounds(limits, q=q, qd_prev=qd_prev, dt=dt, margin=self.cascade.margin, n=n)
-            joints = np.flatnonzero(res.box_active)
-            kinds = set()
-            for j in joints.tolist():
+            by_kind: dict[str, list[str]] = {}
+            for j in np.flatnonzero(res.box_active).tolist():
                 up = abs(res.qd[j] - vb.upper[j]) <= abs(res.qd[j] - vb.lower[j])
                 src = int(vb.source_upper[j] if up else vb.source_lower[j])
                 if src in _KINDS:
-                    kinds.add(_KINDS[src])
-            active = tuple(k for k in ("velocity", "position", "acceleration") if k in kinds)
-            names = [chain.joint_names[j] for j in joints.tolist()]
+                    by_kind.setdefault(_KINDS[src], []).append(chain.joint_names[j])
+            active = tuple(k for k in ("velocity", "position", "acceleration") if k in by_kind)
             for kind, flag in (("position", "joint-limit"), ("velocity", "velocity-scaled"),
                                ("acceleration", "acceleration-limited")):
-                if kind in kinds:
+                if kind in by_kind:
                     flags.append(flag)
-                    reasons.append(f"joint(s) {names} at a {kind} bound")
+                    reasons.append(f"joint(s) {by_kind[kind]} at their {kind} bound")
         return TasksResult(qd=res.qd.copy(), priorities=priorities, residuals=res.residuals,
                            task_errors=errors, flags=tuple(dict.fromkeys(flags)), reasons=tuple(reasons),
                            limits_active=active, collision_distance=float(closest), cascade=res)

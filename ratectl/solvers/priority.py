@@ -217,10 +217,13 @@ class PriorityCascade:
             if not h.size:
                 raise SolverError(f"the priority cascade's first level failed on backend "
                                   f"{self.backend!r}", status="failed") from None
-        relaxed = self._relaxation(lo, hi, G, h)
-        return self._cascade(lv, lo, hi, G, h + relaxed, relaxed, n)
+        relaxed, feasible = self._relaxation(lo, hi, G, h)
+        return self._cascade(lv, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible)
 
-    def _cascade(self, lv, lo, hi, G, h, relaxed, n) -> CascadeResult:
+    def _cascade(self, lv, lo, hi, G, h, relaxed, n, fallback=None) -> CascadeResult:
+        """The levels in order; ``fallback`` (a q̇ known to satisfy the box and the rows)
+        stands in for the first level's QP if its backend finds no point (a relaxed problem
+        on the edge of its tolerance)."""
         x = np.minimum(np.maximum(np.zeros(n), lo), hi)
         Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
         lam2 = self.damping**2
@@ -251,7 +254,12 @@ class PriorityCascade:
                 ok = bool(np.all(G @ cand <= h + 1e-12 * (1.0 + np.abs(h))))
             if not ok:
                 qps[k] = True
-                z = self._level_qp(H, f, x, Z, lo, hi, G, h, n, r)
+                try:
+                    z = self._level_qp(H, f, x, Z, lo, hi, G, h, n, r)
+                except _Infeasible:
+                    if fallback is None:
+                        raise
+                    z = fallback - x
                 step = z if Z is None else Z @ z
                 cand = x + step
             x = cand
@@ -311,8 +319,9 @@ class PriorityCascade:
                              argument="extra_inequalities", value=extra)
         return G, h
 
-    def _relaxation(self, lo, hi, G, h) -> np.ndarray:
-        """The slack s ≥ 0 (least squares) with G q̇ ≤ h + s feasible in the box."""
+    def _relaxation(self, lo, hi, G, h) -> tuple[np.ndarray, np.ndarray]:
+        """The slack s ≥ 0 (least squares) with G q̇ ≤ h + s feasible in the box, and a q̇
+        of the box that meets the relaxed rows."""
         n = lo.shape[0]
         m = h.shape[0]
         # [q̇; s]: min ½‖s‖² + ½ε‖q̇‖², G q̇ − s ≤ h, box, s ≥ 0
@@ -324,7 +333,10 @@ class PriorityCascade:
         if sol is None:
             raise SolverError("the extra rows could not be relaxed to meet the joint-velocity box",
                               status="infeasible")
-        return np.maximum(sol[n:], 0.0) * (1.0 + 1e-9) + 1e-12
+        qd = np.minimum(np.maximum(sol[:n], lo), hi)
+        # the slack the clipped q̇ needs, with a little room for the next solve's tolerance
+        slack = np.maximum(np.maximum(sol[n:], G @ qd - h), 0.0)
+        return slack * (1.0 + 1e-9) + 1e-9, qd
 
     def _level_qp(self, H, f, x, Z, lo, hi, G, h, n, r) -> np.ndarray:
         """The level's QP in z: min ½zᵀHz + fᵀz s.t. lo ≤ x + Z z ≤ hi, G(x + Z z) ≤ h."""

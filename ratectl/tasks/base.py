@@ -127,6 +127,7 @@ class FrameTask(Task):
         self.link = link
         self._target: np.ndarray | None = None
         self._twist = np.zeros(6)
+        self._last: tuple[int, bytes, float, TaskRows] | None = None  # (chain id, q, gain, rows)
 
     @property
     def has_target(self) -> bool:
@@ -138,6 +139,7 @@ class FrameTask(Task):
         return None if self._target is None else self._target.copy()
 
     def _set(self, T: np.ndarray, twist: np.ndarray | None) -> None:
+        self._last = None
         self._target = T
         self._twist = np.zeros(6)
         if twist is not None:
@@ -148,17 +150,26 @@ class FrameTask(Task):
         return chain.fk_jacobian(q, link=self.link) if self.link is not None else chain.fk_jacobian(q)
 
     def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
-        """``A = J[rows]``, ``b = ξ_ff[rows] + K · e[rows]`` with ``e`` the pose error."""
+        """``A = J[rows]``, ``b = ξ_ff[rows] + K · e[rows]`` with ``e`` the pose error.
+
+        The rows of the last (chain, q) are kept until the target changes: the controller
+        reads them again for its report."""
         from ..spatial import pose_error_into
 
         if self._target is None:
             raise InputError(f"{self!r} has no target: call set_target first", argument="target",
                              value=None)
+        key = np.asarray(q, dtype=float).tobytes()
+        last = self._last
+        if last is not None and last[0] == id(chain) and last[1] == key and last[2] == self.gain:
+            return last[3]
         T, J = self.frame(chain, q)
         e = np.empty(6)
         pose_error_into(e, self._target, T)
         r = self._rows
-        return TaskRows(A=J[r], b=self._twist[r] + self.gain * e[r], error=e[r])
+        out = TaskRows(A=J[r], b=self._twist[r] + self.gain * e[r], error=e[r])
+        self._last = (id(chain), key, self.gain, out)
+        return out
 
     def __repr__(self) -> str:
         link = "tool" if self.link is None else repr(self.link)

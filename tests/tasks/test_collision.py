@@ -62,3 +62,50 @@ def test_sphere_obstacle_is_kept_at_the_margin_and_reported():
         statuses.update(cmd.flags)
     assert dmin >= 0.015
     assert "collision-avoidance" in statuses
+
+
+def test_rows_skip_only_pairs_beyond_the_influence_distance():
+    # the broad phase (bounding spheres, and the last distance less how far the shapes have
+    # moved since) must never drop a pair that is within the influence distance: compare with
+    # every pair's distance (no broad phase) along a smooth path, then after jumps
+    ch = panda_chain(URDF)
+    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02, exclude=HULL_CONTACT)
+    rng = np.random.default_rng(3)
+    q_far = ch.random_q(rng=rng)
+    path = [HOME + s * (q_far - HOME) for s in np.linspace(0.0, 1.0, 40)]
+    path += [ch.random_q(rng=rng) for _ in range(8)] + [HOME, HOME]
+    names = sc.pair_names
+    computed = 0
+    for q in path:
+        r = sc.rows(q)
+        d = sc.distances(q)
+        within = {names[k]: d[k] for k in np.flatnonzero(d < sc.influence)}
+        assert set(r.pairs) == set(within)
+        for pair, dist in zip(r.pairs, r.distance, strict=True):
+            assert dist == pytest.approx(within[pair], abs=1e-9)
+        computed += len(r.pairs)
+        if within:
+            assert r.closest == pytest.approx(min(within.values()), abs=1e-9)
+    assert computed > 0
+
+
+def test_damper_rows_are_the_distance_rate():
+    # G q̇ = −ḋ: the row against a finite difference of the distance of each near pair
+    ch = panda_chain(URDF)
+    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02, exclude=HULL_CONTACT)
+    rng = np.random.default_rng(4)
+    checked = 0
+    for _ in range(6):
+        q = ch.random_q(rng=rng)
+        r = sc.rows(q)
+        qd = rng.normal(size=ch.dof)
+        eps = 1e-6
+        dp, dm = sc.distances(q + eps * qd), sc.distances(q - eps * qd)
+        idx = {p: k for k, p in enumerate(sc.pair_names)}
+        for row, pair, dist in zip(r.G, r.pairs, r.distance, strict=True):
+            if dist <= 1e-3:
+                continue  # penetrating: the witness points jump between faces
+            ddot = (dp[idx[pair]] - dm[idx[pair]]) / (2 * eps)
+            assert -row @ qd == pytest.approx(ddot, abs=1e-4 * (1 + abs(ddot)))
+            checked += 1
+    assert checked >= 5

@@ -129,3 +129,21 @@ def test_panda_tool_elbow_posture_acceptance():
     qdd = np.diff(np.vstack([np.zeros(7), qdb]), axis=0) / dt
     assert np.all(np.abs(qdd) <= ch.amax * (1 + 1e-6))
     assert ch.within_limits(qb).all()
+
+
+@pytest.mark.parametrize("backend", ["daqp", "exact"])
+@pytest.mark.parametrize("seed", range(6))
+def test_rows_relaxed_to_a_corner_of_the_box_still_give_a_command(seed, backend):
+    # a row that only the corner q̇ = −sign(G₀)·vmax can come near: the relaxed feasible set
+    # is a sliver at that corner (found in the loop: a damper the acceleration box cannot meet)
+    rng = np.random.default_rng(seed)
+    n = 7
+    A, b = rng.normal(size=(6, n)), 3 * rng.normal(size=6)
+    G = rng.normal(size=(3, n))
+    corner = -np.sign(G[0])
+    h = np.concatenate([[G[0] @ corner - 0.05], G[1:] @ corner + 0.5])  # the others hold there
+    res = PriorityCascade(backend=backend).solve([(A, b), (np.eye(n), np.zeros(n))], limits=_Box(n, 1.0),
+                                                 extra_inequalities=(G, h))
+    assert res.relaxed[0] == pytest.approx(0.05, abs=1e-6)
+    assert np.all(G @ res.qd <= h + res.relaxed + 1e-9)
+    np.testing.assert_allclose(res.qd, corner, atol=1e-4)
