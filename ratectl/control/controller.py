@@ -57,7 +57,7 @@ from ..model.limits import (
     stopping_distance,
 )
 from ..singularity import analyze
-from ..solvers.base import SolveResult
+from ..solvers.base import SolveResult, solver_declares, validated_solve
 from ..solvers.ik import ik_iterate
 from ..spatial import pose_error_into, rigid_transform_defect
 from .approach import JointLine, StraightApproach
@@ -188,9 +188,6 @@ class _Cycle:
         self.smin = None  # σ_min of the solve, read on demand (`ResolvedRateController._sigma`)
 
 
-_QP = solvers.QP
-
-
 def default_solver():
     """The controller's default inverse-velocity solver: ``rc.solvers.AdaptiveDLS()``."""
     return solvers.AdaptiveDLS()
@@ -236,6 +233,8 @@ class ResolvedRateController:
         self.chain = chain
         self._n = n = chain.dof
         self.solver = _checked_solver(solver)
+        self._solve_entry = validated_solve(self.solver)
+        self._enforcing = solver_declares(self.solver, "enforces_limits")
         K = _checked_gain(gain)
         self.gain = K
         kmax = float(K.max())
@@ -330,7 +329,7 @@ class ResolvedRateController:
         # the straight approach, not with a solver that bends the path around rows of its own;
         # an arm of fewer than 6 joints cannot follow a line in 6-D: its approach starts anew
         # from the measured pose every period (straight toward the target from where it is)
-        self._straight_servo = not getattr(self.solver, "adds_rows", False)
+        self._straight_servo = not solver_declares(self.solver, "adds_rows")
         self._pursuit = self.chain.dof < 6
         self._straight = StraightApproach(length=self.chain.characteristic_length)
         self._joint_line = JointLine()
@@ -622,26 +621,11 @@ class ResolvedRateController:
         # period of its state: the arm then accelerates at a fraction of amax)
         qd_prev = self._qd if self.filter is None else None
         try:
-            if type(self.solver) is _QP:
-                # exactly the QP (a subclass or a wrapper may add rows in its own solve): its
-                # entry for validated inputs — q, dt and q̇_ff were checked by this cycle, the
-                # previous q̇ is this controller's finite state, J and ξ its own float arrays
-                res = self.solver.solve_validated(cyc.J, cyc.xi, limits=self.limits, q=q,
-                                                  qd_prev=qd_prev, dt=dt, qd_ff=qd_ff)
-            elif qd_ff is not None and getattr(self.solver, "enforces_limits", False):
-                # a limit-enforcing solver (the QP, or a wrapper of it) takes q̇_ff and bounds
-                # the total q̇_ff + correction itself: velocity, position and acceleration
-                # limits hold for what is commanded, not only for the correction
-                enforcing: Any = self.solver  # the enforces_limits contract includes qd_ff=
-                res = enforcing.solve(cyc.J, cyc.xi, limits=self.limits, q=q, qd_prev=qd_prev,
-                                      dt=dt, qd_ff=qd_ff)
-            else:
-                if qd_ff is None:
-                    q_s, qd_prev_s = q, qd_prev
-                else:  # the solver resolves the correction on top of q̇_ff: shift its inputs
-                    q_s, qd_prev_s = q + qd_ff * dt, (None if qd_prev is None else qd_prev - qd_ff)
-                res = self.solver.solve(cyc.J, cyc.xi, limits=self.limits, q=q_s, qd_prev=qd_prev_s,
-                                        dt=dt)
+            # the solver's entry for validated inputs (`Solver.solve_validated`): q, dt and
+            # q̇_ff were checked by this cycle, the previous q̇ is this controller's finite
+            # state, J and ξ its own float arrays; it returns the correction on top of q̇_ff
+            res = self._solve_entry(cyc.J, cyc.xi, limits=self.limits, q=q, qd_prev=qd_prev, dt=dt,
+                                    qd_ff=qd_ff)
         except SingularityError as err:
             return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
                               error=cyc.e, ep=cyc.ep, eo=cyc.eo)
@@ -879,7 +863,7 @@ class ResolvedRateController:
         c = jog.advance(caps, dt)
         jog.w_prev = w
         cyc.xi = twist * c
-        if getattr(self.solver, "enforces_limits", False):
+        if self._enforcing:
             halt = self._solve(cyc, q, dt, None)
             if halt is not None:
                 return halt
@@ -925,7 +909,7 @@ class ResolvedRateController:
     def _limit(self, cyc: _Cycle, q, dt) -> None:
         """Velocity, acceleration and position limits on ``cyc.qd`` (in that order; see the
         module docstring), or only the report of them for a solver that enforces them."""
-        enforcing = getattr(self.solver, "enforces_limits", False)
+        enforcing = self._enforcing
         if enforcing:
             # the solver (the QP, possibly with extra rows such as collision limits) already
             # bounds q̇ by the velocity, position and acceleration limits; limiting again here
