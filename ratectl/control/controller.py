@@ -51,12 +51,14 @@ from ..spatial import pose_error_into
 from .command import _RANK, STATUSES, Command, make_command
 from .cycle import Cycle, Motion, _finite_sum
 from .gate import Gate, _checked_stamp, _float_array
+from .halt import brake
 from .jog import JogStage
 from .limiter import Limiter
 from .progress_stage import ProgressStage
 from .servo import Servo
 from .smooth_stage import SmoothGuard
 from .smoothing import VelocityFilter
+from .tasks_hook import tasks_command, tasks_stage
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -407,16 +409,22 @@ class ResolvedRateController:
         return None
 
     # --- the command
+    def _advance(self, q, q_next, qd, qdd, dt) -> float:
+        """Record a command (the measured or base q, q_next, q̇, q̈) as the controller's
+        state and advance its clock by ``dt``; returns the period's start time [s]."""
+        self._q_next_last = q_next.copy()
+        self._m.qd = qd.copy()
+        self._m.qdd = qdd
+        self._q_last = q.copy()
+        t0 = self.time
+        self.time = t0 + dt
+        return t0
+
     def _command(self, cyc: Cycle, q, dt) -> Command:
         """Update the controller state and return the cycle's frozen `Command`
         (its arrays are read-only and not shared with the controller's state)."""
         qd = cyc.qd
-        self._q_next_last = cyc.q_next.copy()
-        self._m.qd = qd.copy()
-        self._m.qdd = cyc.qdd
-        self._q_last = q.copy()
-        t0 = self.time
-        self.time = t0 + dt
+        t0 = self._advance(q, cyc.q_next, qd, cyc.qdd, dt)
         if cyc.kind is None:
             self._progress.singular_kind = None
         if cyc.flags:
@@ -438,19 +446,11 @@ class ResolvedRateController:
 
     # ------------------------------------------------------------------ tasks hook
     # Several tasks with strict priorities and collision dampers: the cycle is
-    # `ratectl.control.tasks_stage.TasksStage`; this section only wires it in.
+    # `ratectl.control.tasks_stage.TasksStage`; `ratectl.control.tasks_hook` wires it in.
     def _tasks_hook(self, tasks, collision) -> None:
         """``tasks=`` / ``collision=``: build the `TasksStage` (None when neither is given)."""
-        self._tasks = None
-        if tasks is None and collision is None:
-            return
-        if self.filter is not None:
-            raise InputError("tasks= does not combine with smoothing yet: the cascade bounds the "
-                             "acceleration itself; pass smoothing=False", argument="smoothing",
-                             value=self._smoothing_option)
-        from .tasks_stage import TasksStage
-
-        self._tasks = TasksStage(self.chain, list(tasks or ()), list(collision or ()))
+        self._tasks = tasks_stage(self.chain, tasks, collision, smoothed=self.filter is not None,
+                                  smoothing=self._smoothing_option)
 
     def _tasks_step(self, q, dt, stamp) -> Command:
         """One cycle of the tasks: validate, halt on bad values, solve the cascade, command."""
@@ -466,27 +466,9 @@ class ResolvedRateController:
         qd = res.qd.copy()
         qdd = (qd - self._m.qd) / dt
         q_next = q + qd * dt
-        self._q_next_last = q_next.copy()
-        self._m.qd = qd.copy()
-        self._m.qdd = qdd
-        self._q_last = q.copy()
-        t0 = self.time
-        self.time = t0 + dt
-        flags = res.flags or ("regular",)
-        status = min(flags, key=_RANK.__getitem__)
-        e = np.zeros(6)
-        ep = eo = float("nan")
-        for t in self._tasks.tasks:  # the tool pose task's error, when there is one
-            if type(t).__name__ == "Pose" and getattr(t, "link", None) is None and t.has_target:
-                e = t.rows(self.chain, q).error.copy()
-                ep, eo = float(np.linalg.norm(e[:3])), float(np.linalg.norm(e[3:]))
-                break
-        return make_command({"qd": qd, "q_next": q_next, "qdd": qdd.copy(), "status": status,
-                             "flags": flags, "reason": "; ".join(res.reasons), "error": e,
-                             "position_error": ep, "orientation_error": eo, "twist": np.zeros(6),
-                             "sigma_min": float("nan"), "damping": 0.0, "task_error": res.residuals,
-                             "velocity_scale": 1.0, "limits_active": res.limits_active, "time": t0,
-                             "dt": dt, "solve": res}, self.chain, self._q_last)
+        t0 = self._advance(q, q_next, qd, qdd, dt)
+        assert self._q_last is not None
+        return tasks_command(self._tasks, self.chain, res, q_next, qd, qdd, t0, dt, self._q_last)
 
     # ------------------------------------------------------------------ halting
     def _halt(self, q, dt, reason, *, status="halted", sigma_min=float("nan"), error=None,
@@ -504,25 +486,8 @@ class ResolvedRateController:
             base = self._q_next_last if self._q_next_last is not None else self._q_last
         if base is None:
             base = np.zeros(self._n)
-        smoothed = False
-        if self.filter is not None:
-            try:
-                q_next, qd, qdd = self.filter.update(base, np.zeros(self._n), independent=self._all_joints)
-                smoothed = True
-            except RatectlError as err:  # the filter failed: brake without it
-                reason = f"{reason}; smoothing failed while halting ({err})"
-        if not smoothed:
-            amax = self.limits.amax if self.limits is not None else np.full(self._n, np.inf)
-            speed = np.maximum(np.abs(qd_prev) - amax * dt, 0.0)  # inf amax: 0 at once
-            qd = np.sign(qd_prev) * speed
-            q_next = base + qd * dt
-            qdd = (qd - qd_prev) / dt
-        self._m.qd = qd.copy()
-        self._m.qdd = qdd
-        self._q_last = base.copy()
-        self._q_next_last = q_next.copy()
-        t0 = self.time
-        self.time = t0 + dt
+        q_next, qd, qdd, reason = brake(base, qd_prev, dt, self.filter, self.limits, self._all_joints, reason)
+        t0 = self._advance(base, q_next, qd, qdd, dt)
         return make_command({"qd": qd, "q_next": q_next, "qdd": qdd.copy(), "status": status,
                              "flags": (status,), "reason": reason,
                              "error": np.zeros(6) if error is None else error.copy(),
