@@ -6,21 +6,31 @@
     ξ  = ξ_ff + K e                           (feed-forward plus proportional feedback)
     q̇  = q̇_ff + solver(J(q), ξ)               (inverse velocity; q̇_ff optional)
 
-A target alone is a servo: the tool moves on the straight line to it (`StraightApproach`,
-``_servo``), a jerk-limited progress within the joint limits mapped onto it
-(`ProgressLimits`), and, where that line is blocked, in joint space to an inverse-kinematics
-solution (`JointLine`). A twist alone is a jog along it (`Jog`, ``_jog``). Then the
-controller applies the limits in this order: velocity (uniform
-scaling, which keeps the direction of motion), acceleration (the change of q̇ per cycle is
-scaled to fit amax·dt), joint position (each joint may only move as fast as it can still
-stop before its limit at amax whatever the later periods are, ``braking_speed_any_dt``;
-without an acceleration limit that is d/dt, so the velocity limit alone enforces the
-range; after a fault — a measured q inside the stopping distance or beyond a limit — the
-position side wins over amax, status ``limit-recovery``). A solver
-that enforces the limits itself (the QP, ``enforces_limits = True``) is not limited again:
-its bounds and any extra rows (collision limits) are kept as solved and only reported.
-Then the controller optionally smooths the result with a Ruckig velocity filter
-(jerk-limited) and integrates ``q_next = q + q̇ dt`` (or Ruckig's exact integral).
+The controller composes stage objects, each owning its state, in the order of a cycle
+(``_cycle``):
+
+1. the gate (`ratectl.control.gate`): shapes and types, and the halt policy for values;
+2. a target alone is a servo (`ratectl.control.servo`): the tool moves on the straight
+   line to it (`StraightApproach`), a jerk-limited progress within the joint limits
+   mapped onto it (`ProgressLimits`), and, where that line is blocked, in joint space to
+   an inverse-kinematics solution (`JointLine`); a twist alone is a jog along it
+   (`ratectl.control.jog`); both share `ratectl.control.progress_stage`. Otherwise the
+   pose error and the solve (``_error``, ``_solve``, here) through the solver's validated
+   entry (`Solver.solve_validated`);
+3. the limits (`ratectl.control.limiter`), in this order: velocity (uniform scaling, which
+   keeps the direction of motion), acceleration (the change of q̇ per cycle is scaled to
+   fit amax·dt), joint position (each joint may only move as fast as it can still stop
+   before its limit at amax whatever the later periods are, ``braking_speed_any_dt``;
+   without an acceleration limit that is d/dt, so the velocity limit alone enforces the
+   range; after a fault — a measured q inside the stopping distance or beyond a limit —
+   the position side wins over amax, status ``limit-recovery``). A solver that enforces
+   the limits itself (the QP, ``enforces_limits = True``) is not limited again: its bounds
+   and any extra rows (collision limits) are kept as solved and only reported;
+4. optionally a Ruckig velocity filter (jerk-limited, ``_smooth``) inside its position
+   guard (`ratectl.control.smooth_stage`), and the integration ``q_next = q + q̇ dt`` (or
+   Ruckig's exact integral);
+5. the servo's arrival status and the `Command` (``_command``); a halt's braking motion is
+   `ratectl.control.halt`, the tasks hook `ratectl.control.tasks_hook`.
 
 Every call returns a frozen `Command` whose ``status`` says what happened
 (see `STATUSES`). Bad *values* never raise in the loop: a non-finite q,
