@@ -7,15 +7,29 @@ c changes within the acceleration share of `ProgressLimits` and never exceeds it
 velocity is always a non-negative multiple of the command: near a singularity or a joint
 limit the arm slows down and stops along ξ, never sideways, and a command that leads away
 moves at once.
+
+`JogStage` is the controller's jog stage: it owns the `Jog`, solves the direction
+(`ProgressStage`) and reports the bound that holds the progress.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+from ..arrays import shared_zeros
+from ..errors import RatectlError, SingularityError
+from .cycle import Cycle, Motion, _finite_sum
 from .progress import ProgressCaps
 
-__all__ = ["Jog"]
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+    from .command import Command
+    from .progress_stage import ProgressStage
+
+__all__ = ["Jog", "JogStage"]
 
 
 class Jog:
@@ -49,3 +63,84 @@ class Jog:
         c = min(c + step, goal) if c < goal else goal
         self.c = max(c, 0.0)
         return self.c
+
+
+class JogStage:
+    """The controller's jog stage (stage 3 for a twist alone).
+
+    Args:
+        chain: the arm.
+        progress: the bounds and flags shared with the approach (`ProgressStage`).
+        motion: the controller's last command (`Motion`).
+        enforcing: the solver enforces the limits itself: the scaled twist is solved again
+            under its bounds.
+        solve, halt: the controller's solve stage and safe halt.
+    """
+
+    def __init__(self, chain: Chain, progress: ProgressStage, motion: Motion, *, enforcing: bool,
+                 solve: Callable[..., Command | None], halt: Callable[..., Command]) -> None:
+        self.chain = chain
+        self._progress = progress
+        self._m = motion
+        self._enforcing = enforcing
+        self._solve = solve
+        self._halt = halt
+        self._jogger = Jog()
+
+    def reset(self) -> None:
+        """No jog in progress: the next twist starts from the arm's motion."""
+        self._jogger.reset()
+
+    def step(self, cyc: Cycle, q, dt, twist) -> Command | None:
+        """One period of jogging (`Jog`): q̇ = c·J⁺ξ with c ∈ [0, 1] within the joint limits mapped onto the
+        commanded direction (`ProgressLimits`): the tool moves along ξ or slows down along it,
+        never sideways."""
+        J = cyc.J = self.chain.jacobian(q)
+        cyc.e = shared_zeros(6)
+        cyc.ep = cyc.eo = 0.0
+        cyc.target = False
+        jog = self._jogger
+        if jog.twist is None and twist.any():  # a first twist: c from the arm's present motion
+            moving = J @ self._m.qd
+            jog.c = min(max(float(moving @ twist) / float(twist @ twist), 0.0), 1.0)
+        jog.start(twist)
+        if not twist.any():
+            jog.c = 0.0
+            cyc.xi = twist.copy()
+            return self._solve(cyc, q, dt, None)
+        try:
+            res_w = self._progress.direction(J, twist, q, dt)
+        except SingularityError as err:
+            return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min)
+        except (RatectlError, np.linalg.LinAlgError) as err:
+            return self._halt(q, dt, f"solver failed: {err}")
+        w = np.array(res_w.qd, dtype=float)
+        if not _finite_sum(w):
+            return self._halt(q, dt, "solver returned a non-finite q̇")
+        wp = jog.w_prev
+        w_prime = (w - wp) / (jog.c * dt) if (wp is not None and jog.c > 0.0) else None
+        pr = self._progress
+        caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(res_w), w_prime=w_prime,
+                              exact=lambda q2: pr.exact_direction(q2, twist))
+        c_prev = jog.c
+        c = jog.advance(caps, dt)
+        jog.w_prev = w
+        cyc.xi = twist * c
+        if self._enforcing:
+            halt = self._solve(cyc, q, dt, None)
+            if halt is not None:
+                return halt
+        else:
+            cyc.res = res_w
+            cyc.qd = w * c
+            cyc.active = []
+            cyc.scale = 1.0
+            cyc.smin = None
+        self._progress.flags(cyc, q, caps, c > 0.0, c >= caps.speed * (1.0 - 1e-9) and c < 1.0)
+        if c > c_prev and c < min(1.0, caps.speed) * (1.0 - 1e-12):
+            cyc.flags.append("acceleration-limited")
+            cyc.reasons.append(f"accelerating along the commanded twist within amax ({c:.3g}× the twist)")
+            cyc.active.append("acceleration")
+        if "velocity" in cyc.active or caps.binding == "velocity":
+            cyc.scale = c
+        return None

@@ -22,7 +22,8 @@ from ..model.limits import Limits
 if TYPE_CHECKING:
     from ..model.chain import Chain
 
-__all__ = ['SolveResult', 'Solver', 'POSITION_ONLY', 'ORIENTATION_ONLY', 'VELOCITY_POLICIES']
+__all__ = ['SolveResult', 'Solver', 'POSITION_ONLY', 'ORIENTATION_ONLY', 'VELOCITY_POLICIES',
+           'solver_declares', 'validated_solve', 'validated_solve_generic']
 
 
 VELOCITY_POLICIES = ("scale", "clip", None)
@@ -388,6 +389,27 @@ class Solver:
     enforces_limits = False
     adds_rows = False
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        # a subclass whose own ``solve`` adds something (rows of its own) keeps it on the
+        # validated entry too: a ``solve_validated`` inherited from a parent that skips
+        # ``solve`` (the QP's) would bypass it, so such a class gets the generic entry
+        super().__init_subclass__(**kwargs)
+        if "solve" in cls.__dict__ and "solve_validated" not in cls.__dict__:
+            cls.solve_validated = Solver.solve_validated  # type: ignore[method-assign]
+
+    def solve_validated(self, J: np.ndarray, xi: np.ndarray, *, limits: Limits | Chain | None,
+                        q: np.ndarray | None, qd_prev: np.ndarray | None, dt: float | None,
+                        qd_ff: np.ndarray | None = None) -> SolveResult:
+        """The controller's entry (`validated_solve`), for inputs the caller has validated:
+        J a float64 (m, n) array, ξ (m,), q, q̇_prev and q̇_ff None or finite (n,) arrays, dt
+        None or a positive finite float. Returns the correction c of q̇ = q̇_ff + c (c = q̇
+        without ``qd_ff``). The default calls `solve`: a solver that ``enforces_limits``
+        takes ``qd_ff=`` (its bounds then hold for the total q̇_ff + c); any other resolves
+        the correction from the shifted state q + q̇_ff·dt, q̇_prev − q̇_ff. The QP overrides
+        it with an entry that skips the checks the caller has made (same answers)."""
+        return validated_solve_generic(self, J, xi, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
+                                       qd_ff=qd_ff)
+
     def __init__(self, *, velocity_policy: str | None = "scale", task_weights: ArrayLike | None = None,
                  joint_weights: ArrayLike | None = None) -> None:
         if velocity_policy not in VELOCITY_POLICIES:
@@ -494,3 +516,35 @@ class Solver:
                                velocity_scale=scale, bound=bound, limits_active=active, info=info)
         return _make_result(qd, J, xi, damping, sigma, self.method, policy, scale, bound, active,
                             False, info)
+
+
+def validated_solve_generic(solver: Any, J: np.ndarray, xi: np.ndarray, *, limits: Limits | Chain | None,
+                            q: np.ndarray | None, qd_prev: np.ndarray | None, dt: float | None,
+                            qd_ff: np.ndarray | None = None) -> SolveResult:
+    """`Solver.solve_validated` through ``solver.solve`` (see there), for any solver object."""
+    if qd_ff is not None and solver_declares(solver, "enforces_limits"):
+        # a limit-enforcing solver bounds the total q̇_ff + correction itself: velocity,
+        # position and acceleration limits hold for what is commanded, not only for c
+        return solver.solve(J, xi, limits=limits, q=q, qd_prev=qd_prev, dt=dt, qd_ff=qd_ff)
+    if qd_ff is not None:  # the solver resolves the correction on top of q̇_ff: shift its inputs
+        q = None if q is None else q + qd_ff * dt
+        qd_prev = None if qd_prev is None else qd_prev - qd_ff
+    return solver.solve(J, xi, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
+
+
+def solver_declares(solver: Any, name: str) -> bool:
+    """The solver contract's flag ``name`` (``"enforces_limits"``, ``"adds_rows"``): a
+    `Solver`'s attribute; an object that is not a `Solver` (a wrapper with a ``solve``
+    method) may set the same attribute, False when it does not."""
+    if isinstance(solver, Solver):
+        return bool(getattr(solver, name))
+    return bool(getattr(solver, name, False))
+
+
+def validated_solve(solver: Any):
+    """The validated entry of any solver object: a `Solver`'s ``solve_validated``, or the
+    generic one through its ``solve`` (`validated_solve_generic`) for an object that is
+    not a `Solver` (its attributes may forward elsewhere: its own ``solve`` is the entry)."""
+    if isinstance(solver, Solver):
+        return solver.solve_validated
+    return lambda J, xi, **kw: validated_solve_generic(solver, J, xi, **kw)

@@ -366,24 +366,26 @@ def test_command_is_immutable_and_cannot_change_the_controller(ur5e):
     assert cmd.kind == "wrist"
 
 
-def test_the_stages_of_a_cycle_are_separate_methods(ur5e):
-    """validate → halt check → error → solve → limit → smooth → command, each callable."""
+def test_the_stages_of_a_cycle_are_separate_objects(ur5e):
+    """validate → halt check → error → solve → limit → smooth → command, each callable on
+    its own (the gate and the limiter are objects the controller composes)."""
     ctrl = rc.ResolvedRateController(ur5e, solver=rc.solvers.Inverse())
     T = ur5e.fk(Q_REG)
     target = _shifted(T, [0.001, 0.0, 0.0])
-    q, tgt, tw, dt, qd_ff, qdd_ff = ctrl._validate(list(Q_REG), target, None, np.float32(1e-3), None, None)
+    checked = ctrl._gate.validate(list(Q_REG), target, None, np.float32(1e-3), None, None)
+    q, tgt, tw, dt, qd_ff, qdd_ff = checked
     assert q.dtype == float and dt == pytest.approx(1e-3)
     dt = 1e-3
     with pytest.raises(InputError):
-        ctrl._validate(Q_REG, np.eye(3), None, 1e-3, None, None)
+        ctrl._gate.validate(Q_REG, np.eye(3), None, 1e-3, None, None)
     assert ctrl._halt_reason(q, tgt, tw, dt, qd_ff, qdd_ff, None) is None
     cyc = ctrl._error(q, tgt, tw)
     assert np.allclose(cyc.e, rc.spatial.pose_error(target, T)) and np.allclose(cyc.xi, ctrl.gain * cyc.e)
     assert ctrl._solve(cyc, q, dt, None) is None
     assert np.allclose(ur5e.jacobian(q) @ cyc.qd, cyc.xi)
-    ctrl._limit(cyc, q, dt)
+    near = ctrl._limiter.limit(cyc, q, dt)
     assert np.all(np.abs(cyc.qd) <= ur5e.amax * dt * (1 + 1e-12))  # from rest: acceleration-limited
-    assert ctrl._smooth(cyc, q, dt, None) is None
+    assert ctrl._smooth(cyc, q, dt, None, near) is None
     cmd = ctrl._command(cyc, q, dt)
     assert np.allclose(cmd.q_next, q + cmd.qd * dt) and cmd.status == "acceleration-limited"
 

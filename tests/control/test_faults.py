@@ -92,7 +92,7 @@ def test_a_smoothed_halt_mid_approach_stops_each_joint_time_optimally():
         meas = q.copy()
         if k == 50:
             meas[1] = math.nan
-            v0, a0 = np.array(ctrl._qd), np.array(ctrl._qdd)
+            v0, a0 = ctrl.qd, np.array(ctrl._m.qdd)
         cmd = ctrl.step(meas, target=target, dt=2e-3)
         qds.append(np.array(cmd.qd))
         q = np.array(cmd.q_next)

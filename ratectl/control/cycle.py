@@ -1,0 +1,113 @@
+"""The working state of one control cycle, and what the controller's stages share.
+
+* `Cycle` — what one `step` computes, passed from stage to stage (J, the pose error, the
+  solve, q̇, q̈, the status flags and reasons);
+* `Motion` — the motion the controller last commanded (q̇, q̈), which the stages read as
+  "the previous cycle";
+* small helpers on a cycle's numbers (`_finite_sum`, `_scaled_like`, `_info`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Cycle", "Motion"]
+
+
+def _finite_sum(a: np.ndarray) -> bool:
+    """True when the sum of the entries of ``a`` is finite (no NaN, no inf), through a
+    Python list: ~5× cheaper than ``ndarray.sum`` on the few numbers of one cycle."""
+    s = sum(a.ravel().tolist())
+    return s - s == 0.0
+
+
+def _info(res: Any) -> Mapping[str, Any]:
+    """The ``info`` mapping of a solve result (a `SolveResult` keeps a read-only
+    ``MappingProxyType``, recognised by its exact type first: cheaper than the ABC check),
+    or an empty one when a solver gave something else."""
+    info = res.info
+    if type(info) is MappingProxyType or isinstance(info, Mapping):
+        return info
+    return _NO_INFO
+
+
+_NO_INFO: Mapping[str, Any] = MappingProxyType({})
+
+
+def _scaled_like(wanted: np.ndarray, clipped: np.ndarray) -> np.ndarray:
+    """``wanted`` scaled uniformly by the smallest ratio clipped/wanted over the joints a
+    clip changed (a ratio in [0, 1]; a clip that reversed a joint gives 0): the motion
+    slows along its direction instead of turning."""
+    changed = clipped != wanted
+    if not changed.any():
+        return wanted
+    ratio = np.where(changed, clipped / np.where(changed, wanted, 1.0), 1.0)
+    return wanted * float(np.clip(ratio.min(), 0.0, 1.0))
+
+
+class Motion:
+    """The motion the controller last commanded: ``qd`` q̇ [rad/s or m/s] and ``qdd`` q̈
+    [rad/s² or m/s²], (n,) each. One object shared by the controller (which writes it when
+    it commands) and its stages (which read it as the previous cycle's)."""
+
+    __slots__ = ("qd", "qdd")
+
+    def __init__(self, n: int) -> None:
+        self.qd = np.zeros(n)
+        self.qdd = np.zeros(n)
+
+
+class Cycle:
+    """The working state of one control cycle, passed from stage to stage."""
+
+    __slots__ = ("J", "e", "ep", "eo", "xi", "target", "res", "qd", "qdd", "q_next", "flags", "reasons",
+                 "active", "scale", "smin", "braking", "approach", "qdd_ff", "approach_qd", "kind",
+                 "blocked")
+
+    J: np.ndarray
+    e: np.ndarray
+    ep: float
+    eo: float
+    xi: np.ndarray
+    target: bool
+    res: Any
+    smin: float | None
+    qd: np.ndarray
+    qdd: np.ndarray
+    q_next: np.ndarray
+    braking: Any
+    qdd_ff: np.ndarray | None
+    approach_qd: np.ndarray | None
+
+    def __init__(self) -> None:
+        self.flags: list[str] = []
+        self.reasons: list[str] = []
+        self.active: list[str] = []
+        self.braking = None
+        self.approach = 1.0
+        self.qdd_ff = None
+        self.approach_qd = None
+        self.kind: str | None = None
+        self.blocked = ""
+        self.scale = 1.0
+        self.smin = None  # σ_min of the solve, read on demand (`sigma`)
+
+    def sigma(self) -> float:
+        """σ_min of the cycle's solve, computed on the first call only."""
+        smin = self.smin
+        if smin is None:
+            smin = self.smin = float(self.res.sigma_min)
+        return smin
+
+    def sigma_at_least(self, threshold: float) -> bool:
+        """σ_min ≥ threshold for the cycle's solve: by the result's ``sigma_min_at_least``
+        (a `SolveResult`'s: the QP usually decides it without computing σ_min), else by
+        the value."""
+        at_least = getattr(self.res, "sigma_min_at_least", None) if self.smin is None else None
+        if at_least is not None:
+            return bool(at_least(threshold))
+        return self.sigma() >= threshold

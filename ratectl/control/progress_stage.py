@@ -1,0 +1,94 @@
+"""What the straight approach and the jog share: `ProgressStage`.
+
+Both move along one direction at a progress the joint limits and the singularities bound
+(`ProgressLimits`): the solver's answer for the direction (`ProgressStage.direction`), the
+singularity look-ahead along it (`ProgressStage.exact_direction`), and the status flags and
+reasons of the bound that holds the progress (`ProgressStage.flags`, which names the kind
+of singularity once per encounter with `ratectl.singularity.analyze`).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..singularity import analyze
+from .cycle import Cycle
+from .progress import ProgressLimits
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+    from ..model.limits import Limits
+    from .smoothing import VelocityFilter
+
+__all__ = ["ProgressStage"]
+
+_SHARE = 0.5  # share of amax (and jmax) the progress of an approach or a jog may use itself
+_KIND_NEAR = 0.5  # the σ band in which `analyze` names the singularity a progress stops before
+
+
+class ProgressStage:
+    """The progress bounds (``bounds``, a `ProgressLimits`) of ``chain`` under ``limits``
+    (jerk-limited with a smoothing ``filter``), stopping at ``stop_sigma`` before a
+    singularity whose lost direction the motion heads into; ``solver`` answers for the
+    directions. Owns the kind of the singularity being approached (``singular_kind``,
+    None when none: the controller clears it after a cycle that met none)."""
+
+    def __init__(self, chain: Chain, solver: Any, limits: Limits | None, filter: VelocityFilter | None,
+                 *, stop_sigma: float) -> None:
+        self.chain = chain
+        self.solver = solver
+        jmax = filter.jmax if filter is not None else None  # jerk-limited only when smoothed
+        self.bounds = ProgressLimits(chain, limits, jmax=jmax, accel_share=_SHARE, stop_sigma=stop_sigma,
+                                     watch_sigma=max(4.0 * stop_sigma, 1e-6))
+        self.singular_kind: str | None = None
+
+    def direction(self, J: np.ndarray, d: np.ndarray, q: np.ndarray, dt: float) -> Any:
+        """The solver's answer for the direction ``d`` (6,) without the joint limits (which
+        bound the progress instead): q̇ per unit of progress (``.qd``), with σ_min available
+        from the result. ``q`` and ``dt`` go to solvers that need them (extra rows)."""
+        return self.solver.solve(J, d, q=q, dt=dt)
+
+    def exact_direction(self, q: np.ndarray, d: np.ndarray) -> tuple[float, float]:
+        """(σ_min, share) at ``q`` from one SVD J = U S Vᵀ: σ_min(J), and the share of the
+        exact joint speed |J⁺d|² = Σ (uᵢ·d / σᵢ)² that goes into the weakest direction
+        (the singularity look-ahead of `ProgressLimits`: is ``d`` being lost?)."""
+        U, S, Vt = np.linalg.svd(self.chain.jacobian(q), full_matrices=False)
+        if S.shape[0] < 6 or not S[-1] > S[0] * 1e-12:
+            return 0.0, 1.0
+        c = (U.T @ d) / S
+        total = float(c @ c)
+        return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0)
+
+    def sigma_for_watch(self, res: Any) -> float | None:
+        """σ_min of a direction solve when it may be below the watch threshold, else None
+        (decided without computing σ_min when the result can)."""
+        at_least = getattr(res, "sigma_min_at_least", None)
+        if at_least is not None and at_least(self.bounds.watch_sigma):
+            return None
+        smin = float(res.sigma_min)
+        return smin if smin < self.bounds.watch_sigma else None
+
+    def flags(self, cyc: Cycle, q, caps, moving: bool, at_bound: bool) -> None:
+        """Status flags and reasons of a progress bound (approach or jog)."""
+        if caps.binding == "singularity" and (at_bound or caps.blocked_by):
+            if caps.blocked_by and not moving:
+                cyc.flags.append("halted-singularity")
+            else:
+                cyc.flags.append("approaching-singularity")
+            kind = self.singular_kind
+            if kind is None:  # named once per encounter: `analyze` with a wide "near" band
+                kind = self.singular_kind = str(analyze(self.chain, q, near=_KIND_NEAR).kind)
+            cyc.kind = kind
+            cyc.reasons.append(caps.reason.replace("a singularity", f"a {kind} singularity", 1))
+            return
+        elif caps.binding == "position" and (at_bound or caps.blocked_by):
+            cyc.flags.append("joint-limit")
+            cyc.reasons.append(caps.reason)
+            cyc.active.append("position")
+        elif caps.binding in ("velocity", "curvature") and at_bound and moving:
+            cyc.flags.append("velocity-scaled")
+            cyc.active.append("velocity")
+            cyc.reasons.append(f"moving at the speed limit of joint {self.bounds.name(caps.joint)} "
+                               "along the commanded direction")

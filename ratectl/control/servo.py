@@ -1,0 +1,282 @@
+"""The controller's servo stage: the approach to a target, `Servo`.
+
+A target alone is a servo: the tool moves on the straight line to it (`StraightApproach`),
+a jerk-limited progress within the joint limits mapped onto it (`ProgressLimits`, through
+the `ProgressStage` it shares with the jog), and, where that line is blocked (a limit or a
+singularity on the way) and ``blocked="joint-space"``, in joint space to an
+inverse-kinematics solution of the target (`JointLine`; the IK core
+`ratectl.solvers.ik`). `Servo.arrival` then says ``target-reached`` or
+``target-unreachable``. The stage owns the approach, the joint line and what it learnt
+about the current target (the IK alternative tried, the target found out of reach).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import RatectlError, SingularityError
+from ..solvers.base import SolveResult
+from ..solvers.ik import ik_iterate
+from ..spatial import pose_error_into
+from .approach import JointLine, StraightApproach
+from .cycle import Cycle, Motion, _finite_sum
+
+if TYPE_CHECKING:
+    from ..model.chain import Chain
+    from .command import Command
+    from .progress_stage import ProgressStage
+    from .smoothing import VelocityFilter
+
+__all__ = ["Servo"]
+
+_AT_BLOCK = 1e-5  # [progress units ~ m]: an approach at rest this close to a block stands at it
+_LAG_MAX = 0.02  # [m, weighted]: the approach's progress stops when the arm is this far behind it
+
+
+class Servo:
+    """The servo stage (stage 3 for a target alone; see the module docstring).
+
+    Args:
+        chain: the arm.
+        progress: the bounds and flags shared with the jog (`ProgressStage`).
+        motion: the controller's last command (`Motion`).
+        filter: the controller's smoothing filter or None (with one, the reference's
+            end-of-period speed and acceleration are commanded: the filter integrates).
+        gain: the feedback gain K (6,) [1/s].
+        position_tolerance [m], orientation_tolerance [rad]: "target reached".
+        blocked: ``"joint-space"`` or ``"stop"`` where the straight line is blocked.
+        solve, halt: the controller's solve stage and safe halt.
+    """
+
+    def __init__(self, chain: Chain, progress: ProgressStage, motion: Motion, filter: VelocityFilter | None,
+                 *, gain: np.ndarray, position_tolerance: float, orientation_tolerance: float, blocked: str,
+                 solve: Callable[..., Command | None], halt: Callable[..., Command]) -> None:
+        self.chain = chain
+        self._progress = progress
+        self._m = motion
+        self.filter = filter
+        self.gain = gain
+        kmax = float(gain.max())
+        self._inv_kmax = 1.0 / kmax if kmax > 0.0 else 0.0
+        self.position_tolerance = position_tolerance
+        self.orientation_tolerance = orientation_tolerance
+        self.blocked = blocked
+        self._solve = solve
+        self._halt = halt
+        # an arm of fewer than 6 joints cannot follow a line in 6-D: its approach starts anew
+        # from the measured pose every period (straight toward the target from where it is)
+        self._pursuit = chain.dof < 6
+        self._straight = StraightApproach(length=chain.characteristic_length)
+        self._joint_line = JointLine()
+        self._ik_tried: np.ndarray | None = None  # the last target an IK alternative was sought for
+        self._line_blocked = ""
+        self._lag_max = _LAG_MAX
+        self.reset()
+
+    def reset(self) -> None:
+        """No approach, and nothing known about any target."""
+        self.forget()
+        self._unreachable: np.ndarray | None = None  # the target last found out of reach
+
+    def step(self, cyc: Cycle, q, dt, target) -> Command | None:
+        """The straight approach (`StraightApproach`): fk and J at q, the segment (a new one
+        when the target changed), one period of the progress within the joint limits mapped
+        onto it (`ProgressLimits`), and the solve of ξ = ṡ̄·d + K·e_ref, the mean progress
+        speed of the period along the direction plus feedback on the error to the reference
+        pose T(s)."""
+        T, J = self.chain.fk_jacobian(q)
+        cyc.J = J
+        cyc.target = True
+        ap = self._straight
+        jl = self._joint_line
+        if jl.target is not None:
+            if np.array_equal(target, jl.target):
+                return self._joint_servo(cyc, q, dt, target, T, J)
+            jl.reset()  # a new target: a straight line again, from where the arm is
+            ap.reset()
+        if ap.target is None or self._pursuit or not np.array_equal(target, ap.target):
+            if ap.target is None:  # a first target: from the measured pose and the arm's motion
+                ap.retarget(target, T, J @ self._m.qd, J @ self._m.qdd)
+            elif self._pursuit:  # from the measured pose, the progress's own motion carried on
+                ap.retarget(target, T, ap.sd * ap.d, ap.sdd * ap.d)
+            else:  # a new target: from the reference, which goes on without a jump
+                ap.retarget_from_reference(target)
+        e = cyc.e = np.zeros(6)
+        cyc.ep, cyc.eo = pose_error_into(e, target, T)
+        e_ref = np.zeros(6)
+        pose_error_into(e_ref, ap.pose(ap.s), T)
+        lag = ap.weighted_norm(e_ref)
+        if lag > self._lag_max:
+            # the arm is held off its line (a solver's extra rows such as collision avoidance,
+            # or a robot that lags): a new straight segment from where it is, with its motion
+            ap.retarget(target, T, J @ self._m.qd, J @ self._m.qdd)
+            e_ref[:] = 0.0
+            lag = 0.0
+            cyc.reasons.append("held off the straight line by more than "
+                               f"{self._lag_max * 1e3:.3g} mm: a new line from where the arm is")
+        caps = None
+        w = None
+        speed = 0.0
+        if ap.L > 0.0:
+            try:
+                res_w = self._progress.direction(J, ap.d, q, dt)
+            except SingularityError as err:
+                return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
+                                  error=cyc.e, ep=cyc.ep, eo=cyc.eo)
+            except (RatectlError, np.linalg.LinAlgError) as err:
+                return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
+            w = np.array(res_w.qd, dtype=float)
+            if ap.end_accel == math.inf and not self._pursuit and ap.settled:
+                self._end_bounds(ap, q, target, dt)  # (a target that moves every period: not yet)
+            caps = self._progress.bounds.caps(q, w, dt=dt, sigma=self._progress.sigma_for_watch(res_w),
+                                       w_prime=ap.w_prime(w),
+                                     exact=lambda q2: self._progress.exact_direction(q2, ap.d))
+            w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother
+            # (the room ahead is measured from the arm; the reference leads it along the line)
+            speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max),
+                               lead=ap.weighted_dot(e_ref, ap.d))
+            if self.filter is not None:
+                # the filter integrates exactly: its target is the state at the end of the
+                # period (ṡ₁ with s̈₁), where q + q̇·dt needs the period's mean speed
+                speed = ap.sd
+            ap.w_prev = w
+        cyc.xi = ap.d * speed + self.gain * e_ref
+        halt = self._solve(cyc, q, dt, None)
+        if halt is not None:
+            return halt
+        if w is not None and self.filter is not None:
+            # the reference's acceleration s̈·w + ṡ·ẇ, which the filter then meets without lag
+            cyc.qdd_ff = w * ap.sdd if w_rate is None else w * ap.sdd + w_rate * ap.sd
+            cyc.approach_qd = cyc.qd
+        if caps is not None:
+            moving = ap.sd > 0.0 or speed > 0.0
+            if ap.blocked:  # the stop is planned before a block (a limit, a singularity)
+                at_block = not moving and ap.room_left <= _AT_BLOCK
+                caps.binding, caps.reason = caps.room_by, caps.room_reason
+                caps.blocked_by = caps.room_by if at_block else ""
+                self._progress.flags(cyc, q, caps, moving, True)
+                cyc.blocked = caps.room_reason if at_block else ""
+            else:
+                if caps.binding in ("position", "singularity"):
+                    caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
+                self._progress.flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
+            cyc.approach = ap.s / ap.L
+            if cyc.blocked and self.blocked == "joint-space":
+                self._try_joint_line(cyc, q, target)
+        return None
+
+    def _end_bounds(self, ap: StraightApproach, q, target, dt) -> None:
+        """The progress's acceleration bound at the end of the line, where the arm will be:
+        from the target's inverse kinematics (the IK core `ratectl.solvers.ik`, from the
+        measured q, on the arm's branch) and the direction's q̇ there; a stop planned within
+        the smaller of it and the present bound stays feasible as J changes on the way.
+        Once per line (NaN when no solution was found: the present bound alone)."""
+        res = ik_iterate(self.chain, target, q, tol_position=self.position_tolerance,
+                         tol_orientation=self.orientation_tolerance, max_iter=30, damping=0.05,
+                         max_step=0.2)
+        ap.end_accel = math.nan
+        if not res.converged:
+            return
+        q_end = np.array(res.q)
+        try:
+            J_end = self.chain.jacobian(q_end)
+            w_end = np.array(self._progress.direction(J_end, ap.d, q_end, dt).qd, dtype=float)
+        except (RatectlError, np.linalg.LinAlgError):
+            return
+        if _finite_sum(w_end):
+            ap.end_accel = self._progress.bounds.caps(q_end, w_end, dt=dt).accel
+
+    def forget(self) -> None:
+        """No approach in progress: the next target starts a new one from where the arm is."""
+        self._straight.reset()
+        self._joint_line.reset()
+        self._ik_tried = None
+
+    def _try_joint_line(self, cyc: Cycle, q, target) -> None:
+        """The straight line is blocked where the arm stands: the alternative is a straight
+        line in joint space (`JointLine`) to an inverse-kinematics solution of the target on
+        the arm's own branch (the IK core `ratectl.solvers.ik`, from the measured q, steps of
+        at most 0.1 rad, within the joint limits). Taken when that solution is verified (the
+        pose within a tenth of the tolerances); then the tool leaves its line, the reason
+        says why; otherwise the line stays blocked (``target-unreachable``). Tried once per
+        target."""
+        if self._ik_tried is not None and np.array_equal(target, self._ik_tried):
+            return
+        self._ik_tried = target.copy()
+        res = ik_iterate(self.chain, target, q, tol_position=0.1 * self.position_tolerance,
+                         tol_orientation=0.1 * self.orientation_tolerance, max_iter=200,
+                         damping=0.05, max_step=0.1)
+        if not res.converged:
+            cyc.blocked += "; no inverse-kinematics solution within the joint limits from here"
+            return
+        self._joint_line.start(target, q, np.array(res.q), self._m.qd)
+        self._line_blocked = cyc.blocked
+        cyc.reasons.append(f"the straight line is blocked ({cyc.blocked}): moving in joint space to an "
+                           "inverse-kinematics solution of the target instead (the tool leaves the line)")
+        cyc.blocked = ""
+
+    def _joint_servo(self, cyc: Cycle, q, dt, target, T, J) -> Command | None:
+        """One period on the `JointLine`: q̇ = ṡ̄·u + K·(q(s) − q) (the progress within the
+        joint limits, w = u; feedback on the joint reference), its tool twist J q̇ reported."""
+        jl = self._joint_line
+        e = cyc.e = np.zeros(6)
+        cyc.ep, cyc.eo = pose_error_into(e, target, T)
+        q_ref = jl.q_at(jl.s)
+        caps = self._progress.bounds.caps(q, jl.u, dt=dt)
+        speed = jl.advance(caps, dt)
+        if self.filter is not None:
+            speed = jl.sd
+            cyc.qdd_ff = jl.u * jl.sdd
+        qd = jl.u * speed + (q_ref - q) * (1.0 / self._inv_kmax if self._inv_kmax > 0.0 else 0.0)
+        cyc.qd = cyc.approach_qd = qd
+        cyc.xi = J @ qd
+        cyc.res = SolveResult(qd=qd, achieved=cyc.xi, task_error=np.zeros(6), damping=0.0,
+                              sigma_min=float("nan"), method="joint-line")
+        cyc.approach = jl.s / jl.L if jl.L > 0.0 else 1.0
+        cyc.reasons.append(f"moving in joint space to an inverse-kinematics solution of the target "
+                           f"({cyc.approach:.0%}): the straight line is blocked ({self._line_blocked})")
+        return None
+
+    def arrival(self, cyc: Cycle, target: np.ndarray) -> None:
+        """``target-reached`` or ``target-unreachable`` (first in the flags, so it is the
+        status). Reached: within the tolerances with the command at rest, its tool twist
+        J q̇ within K·tolerance (linear and angular; what the proportional law asks at the
+        tolerance). Unreachable: outside the tolerances with J q̇, and J (q̇ + q̈/K) one
+        time constant ahead, below 1 % of that: the arm has stopped short, no motion within
+        the limits lowers the error from here."""
+        K = self.gain
+        vtol = float(K[:3].max()) * self.position_tolerance
+        wtol = float(K[3:].max()) * self.orientation_tolerance
+        twist = cyc.J @ cyc.qd
+        if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol):
+            return
+        within = cyc.ep <= self.position_tolerance and cyc.eo <= self.orientation_tolerance
+        if within:
+            cyc.flags.insert(0, "target-reached")
+            return
+        if cyc.blocked:  # the straight line is blocked where the arm stands
+            cyc.flags.insert(0, "target-unreachable")
+            cyc.reasons.insert(0, f"stopped {cyc.ep * 1e3:.3g} mm / {math.degrees(cyc.eo):.3g}° from the "
+                               f"target, {cyc.approach:.0%} of the way along the straight line to it, "
+                               f"which is blocked: {cyc.blocked}")
+            return
+        # stopped short: below 1 % of that, now and one time constant ahead (an arm that
+        # creeps toward a singular target, damped, is still on its way); once said for this
+        # target, below 10 % (the last settling does not flicker back to "regular")
+        said = self._unreachable is not None and np.array_equal(target, self._unreachable)
+        vtol *= 0.1 if said else 0.01
+        wtol *= 0.1 if said else 0.01
+        ahead = cyc.J @ (cyc.qd + cyc.qdd * self._inv_kmax)
+        if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol
+                and math.hypot(*ahead[:3].tolist()) <= vtol and math.hypot(*ahead[3:].tolist()) <= wtol):
+            return
+        if not said:
+            self._unreachable = target.copy()
+        cyc.flags.insert(0, "target-unreachable")
+        cyc.reasons.insert(0, f"stopped at a best effort {cyc.ep * 1e3:.3g} mm / "
+                           f"{math.degrees(cyc.eo):.3g}° from the target: no motion within the limits "
+                           "lowers the pose error from here (the target is out of reach)")
