@@ -272,7 +272,7 @@ def test_follow_input_errors(ur5e, scenario):
         rc.follow(ur5e, line, q0[:5], dt=DT)
     outside = q0.copy()
     outside[2] = ur5e.upper[2] + 0.1
-    with pytest.raises(InputError, match=r"outside the joint position limits.*joint 3"):
+    with pytest.raises(InputError, match=r"outside the joint position limits.*joint 'elbow'"):
         rc.follow(ur5e, line, outside, dt=DT)
 
 
