@@ -4,7 +4,7 @@
   solve, q̇, q̈, the status flags and reasons);
 * `Motion` — the motion the controller last commanded (q̇, q̈), which the stages read as
   "the previous cycle";
-* small helpers on a cycle's numbers (`_finite_sum`, `_scaled_like`, `_info`).
+* small helpers on a cycle's numbers (`_finite_sum`, `_same`, `_scaled_like`, `_info`).
 """
 
 from __future__ import annotations
@@ -23,6 +23,12 @@ def _finite_sum(a: np.ndarray) -> bool:
     Python list: ~5× cheaper than ``ndarray.sum`` on the few numbers of one cycle."""
     s = sum(a.ravel().tolist())
     return s - s == 0.0
+
+
+def _same(a: np.ndarray, b: np.ndarray | None) -> bool:
+    """``np.array_equal(a, b)`` for the few numbers of one cycle (a pose, a twist), through
+    Python lists: the same answer (−0.0 equals 0.0, NaN equals nothing), ~5× cheaper."""
+    return b is not None and a.shape == b.shape and a.tolist() == b.tolist()
 
 
 def _info(res: Any) -> Mapping[str, Any]:

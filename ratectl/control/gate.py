@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..spatial import rigid_transform_defect
-from .cycle import _finite_sum
+from .cycle import _finite_sum, _same
 
 __all__ = ["Gate"]
 
@@ -126,7 +126,7 @@ class Gate:
             self.latched = f"non-finite {bad} (NaN or inf); reset() to resume"
             return self.latched, dt
         if target is not None and not (self._target_ok is not None
-                                       and np.array_equal(target, self._target_ok)):
+                                       and _same(target, self._target_ok)):
             defect = rigid_transform_defect(target)
             if defect is not None:  # a scaled, sheared or mirrored pose: no motion toward it
                 return f"target {defect}", dt

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..arrays import shared_zeros
 from ..errors import RatectlError, SingularityError
-from .cycle import Cycle, Motion, _finite_sum
+from .cycle import Cycle, Motion, _finite_sum, _same
 from .progress import ProgressCaps
 
 if TYPE_CHECKING:
@@ -47,7 +47,7 @@ class Jog:
     def start(self, twist: np.ndarray) -> None:
         """A new commanded twist: c continues from the previous motion projected on it."""
         prev = self.twist
-        if prev is not None and self.c > 0.0 and not np.array_equal(prev, twist):
+        if prev is not None and self.c > 0.0 and not _same(prev, twist):
             nn = float(twist @ twist)
             self.c = min(max(self.c * float(prev @ twist) / nn, 0.0), 1.0) if nn > 0.0 else 0.0
             self.w_prev = None
@@ -121,7 +121,7 @@ class JogStage:
         w_prime = (w - wp) / (jog.c * dt) if (wp is not None and jog.c > 0.0) else None
         pr = self._progress
         caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(res_w), w_prime=w_prime,
-                              exact=lambda q2: pr.exact_direction(q2, twist))
+                              exact=lambda q2: pr.exact_direction(q2, twist, (q, J)))
         c_prev = jog.c
         c = jog.advance(caps, dt)
         jog.w_prev = w

@@ -50,11 +50,14 @@ class ProgressStage:
         from the result. ``q`` and ``dt`` go to solvers that need them (extra rows)."""
         return self.solver.solve(J, d, q=q, dt=dt)
 
-    def exact_direction(self, q: np.ndarray, d: np.ndarray) -> tuple[float, float]:
+    def exact_direction(self, q: np.ndarray, d: np.ndarray, J_at: tuple | None = None
+                        ) -> tuple[float, float]:
         """(σ_min, share) at ``q`` from one SVD J = U S Vᵀ: σ_min(J), and the share of the
         exact joint speed |J⁺d|² = Σ (uᵢ·d / σᵢ)² that goes into the weakest direction
-        (the singularity look-ahead of `ProgressLimits`: is ``d`` being lost?)."""
-        U, S, Vt = np.linalg.svd(self.chain.jacobian(q), full_matrices=False)
+        (the singularity look-ahead of `ProgressLimits`: is ``d`` being lost?).
+        ``J_at`` = (q₀, J(q₀)): the cycle's own Jacobian, used when ``q`` is q₀."""
+        J = J_at[1] if J_at is not None and q is J_at[0] else self.chain.jacobian(q)
+        U, S, Vt = np.linalg.svd(J, full_matrices=False)
         if S.shape[0] < 6 or not S[-1] > S[0] * 1e-12:
             return 0.0, 1.0
         c = (U.T @ d) / S

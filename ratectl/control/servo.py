@@ -23,7 +23,7 @@ from ..solvers.base import SolveResult
 from ..solvers.ik import ik_iterate
 from ..spatial import pose_error_into
 from .approach import JointLine, StraightApproach
-from .cycle import Cycle, Motion, _finite_sum
+from .cycle import Cycle, Motion, _finite_sum, _same
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -94,11 +94,11 @@ class Servo:
         ap = self._straight
         jl = self._joint_line
         if jl.target is not None:
-            if np.array_equal(target, jl.target):
+            if _same(target, jl.target):
                 return self._joint_servo(cyc, q, dt, target, T, J)
             jl.reset()  # a new target: a straight line again, from where the arm is
             ap.reset()
-        if ap.target is None or self._pursuit or not np.array_equal(target, ap.target):
+        if ap.target is None or self._pursuit or not _same(target, ap.target):
             if ap.target is None:  # a first target: from the measured pose and the arm's motion
                 ap.retarget(target, T, J @ self._m.qd, J @ self._m.qdd)
             elif self._pursuit:  # from the measured pose, the progress's own motion carried on
@@ -134,7 +134,7 @@ class Servo:
                 self._end_bounds(ap, q, target, dt)  # (a target that moves every period: not yet)
             caps = self._progress.bounds.caps(q, w, dt=dt, sigma=self._progress.sigma_for_watch(res_w),
                                        w_prime=ap.w_prime(w),
-                                     exact=lambda q2: self._progress.exact_direction(q2, ap.d))
+                                     exact=lambda q2: self._progress.exact_direction(q2, ap.d, (q, J)))
             w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother
             # (the room ahead is measured from the arm; the reference leads it along the line)
             speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max),
@@ -204,7 +204,7 @@ class Servo:
         pose within a tenth of the tolerances); then the tool leaves its line, the reason
         says why; otherwise the line stays blocked (``target-unreachable``). Tried once per
         target."""
-        if self._ik_tried is not None and np.array_equal(target, self._ik_tried):
+        if self._ik_tried is not None and _same(target, self._ik_tried):
             return
         self._ik_tried = target.copy()
         res = ik_iterate(self.chain, target, q, tol_position=0.1 * self.position_tolerance,
@@ -267,7 +267,7 @@ class Servo:
         # stopped short: below 1 % of that, now and one time constant ahead (an arm that
         # creeps toward a singular target, damped, is still on its way); once said for this
         # target, below 10 % (the last settling does not flicker back to "regular")
-        said = self._unreachable is not None and np.array_equal(target, self._unreachable)
+        said = self._unreachable is not None and _same(target, self._unreachable)
         vtol *= 0.1 if said else 0.01
         wtol *= 0.1 if said else 0.01
         ahead = cyc.J @ (cyc.qd + cyc.qdd * self._inv_kmax)

@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import ratectl as rc
 from ratectl.control import STATUSES, Command
@@ -528,3 +530,15 @@ def test_joint_acceleration_feed_forward_is_checked_like_the_other_inputs(ur5e, 
         qdd[2] = bad
         cmd = ctrl.step(Q_REG, twist=np.zeros(6), dt=1e-3, qdd_ff=qdd)
         assert cmd.status == "halted" and "non-finite qdd_ff" in cmd.reason
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.sampled_from([0.0, -0.0, 1.0, -1.0, 1e-300, math.nan, math.inf]), min_size=6, max_size=6),
+       st.lists(st.sampled_from([0.0, -0.0, 1.0, -1.0, 1e-300, math.nan, math.inf]), min_size=6, max_size=6))
+def test_the_cycle_s_equality_of_targets_is_numpys(a, b):
+    """The stages compare a target or twist with the last one through lists (`_same`): the
+    answer is np.array_equal's (−0.0 equals 0.0, NaN equals nothing, shapes must agree)."""
+    from ratectl.control.cycle import _same
+    x, y = np.array(a), np.array(b)
+    assert _same(x, y) == np.array_equal(x, y)
+    assert not _same(x, y.reshape(2, 3)) and not _same(x, None)
