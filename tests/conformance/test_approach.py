@@ -454,3 +454,32 @@ def test_a_blocked_line_is_reported_as_a_stop_not_as_slowing(smoothing):
     head = cmd.reason.split(";")[0]
     assert "blocked" in head and "singularity" in head, cmd.reason
     assert "approaching" not in head and "slowed" not in head, cmd.reason
+
+
+@pytest.mark.parametrize("smoothing", [False, True])
+def test_a_halt_status_means_the_arm_stays_at_rest(smoothing):
+    """The UR5e demo's wrist line, its end as the target: the straight line stops before the
+    wrist singularity and the arm goes on in joint space. A status that says halted
+    (``halted-singularity``) is never followed by motion: when the joint-space alternative
+    takes over, the cycle that switches does not call the arm halted (a loop that ends on a
+    halt would stop a motion the controller is still making)."""
+    from ratectl.cli.demo import wrist_line
+
+    sc = wrist_line("ur5e")
+    q = np.array(sc.q0, dtype=float)
+    T = np.array(sc.path.end)
+    ctrl = rc.ResolvedRateController(sc.chain, smoothing=smoothing)
+    halted_at = None
+    statuses = []
+    for k in range(3000):
+        cmd = ctrl.step(q, target=T, dt=2e-3)
+        statuses.append(cmd.status)
+        if halted_at is not None:
+            assert np.abs(cmd.qd).max() <= 1e-9, (k, halted_at, cmd.status, cmd.reason)
+        if cmd.status.startswith("halted") and halted_at is None:
+            halted_at = k
+        q = cmd.q_next
+        if cmd.status in ("target-reached", "target-unreachable"):
+            break
+    assert cmd.status == "target-reached", (cmd.status, cmd.reason)
+    assert halted_at is None, statuses[halted_at]
