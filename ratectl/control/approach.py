@@ -69,6 +69,7 @@ class Progress:
         self.room_left = math.inf
         self._periods = 0  # periods advanced since the segment began
         self.end_accel = math.inf  # the acceleration bound at the end of the line, when known
+        self.end_speed = 0.0  # the speed at which the progress arrives at L (a target that moves)
 
     def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0, lead: float = 0.0) -> float:
         """One period of the progress toward rest at L within ``caps`` (the speed bound
@@ -84,6 +85,8 @@ class Progress:
         # σ_min at which a singularity stops the motion): at rest there, the line is blocked
         x = min(end, caps.room - max(lead, 0.0))
         self.blocked = x < end
+        # a target that moves: arrive at L at its speed along the line (never at a block)
+        v_end = min(self.end_speed, caps.free_speed * speed_scale) if not self.blocked else 0.0
         self.room_left = x
         if not x > 0.0 and self.sd == 0.0:
             self.sdd = 0.0
@@ -106,7 +109,7 @@ class Progress:
         brake = max(nominal, self._brake) if self.sdd < 0.0 else nominal
         if self.sd > vmax:  # above a speed bound: its braking law assumes the whole bound
             brake = max(brake, amax)
-        if self.sd > 0.0 and _stop_bound(self.sd, self.sdd, brake, jmax) > x \
+        if v_end <= 0.0 and self.sd > 0.0 and _stop_bound(self.sd, self.sdd, brake, jmax) > x \
                 and _stop(self.sd, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
             lo, hi = brake, max(_URGENT * amax, brake)
             if _stop(self.sd, self.sdd, hi, jmax) > x:
@@ -117,7 +120,8 @@ class Progress:
                     lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax) > x else (lo, mid)
                 brake = hi
         self._brake = brake
-        nxt = prof.step(x, self.sd, self.sdd, vmax=vmax, amax=amax, jmax=jmax, dt=dt, brake=brake)
+        nxt = prof.step(x, self.sd, self.sdd, vmax=vmax, amax=amax, jmax=jmax, dt=dt, brake=brake,
+                        v_end=v_end)
         if nxt is None:  # no jerk-limited motion found: brake at the acceleration bound
             sd1 = max(self.sd - amax * dt, 0.0)
             dx, sdd1 = 0.5 * (self.sd + sd1) * dt, (sd1 - self.sd) / dt
@@ -126,7 +130,10 @@ class Progress:
         self.s_prev = self.s
         if dx >= end:  # the end of the segment (a motion too fast to stop on it ends there)
             dx = end
-            self.s, self.sd, self.sdd = self.L, 0.0, 0.0
+            if v_end > 0.0:  # with the moving target: the next segment carries the speed on
+                self.s, self.sd, self.sdd = self.L, min(max(sd1, 0.0), v_end), 0.0
+            else:
+                self.s, self.sd, self.sdd = self.L, 0.0, 0.0
         elif dx >= x and self.blocked:  # at the block: rest there
             dx = max(x, 0.0)
             self.s, self.sd, self.sdd = self.s + dx, 0.0, 0.0
@@ -158,6 +165,7 @@ class StraightApproach(Progress):
         self._dp = [0.0, 0.0, 0.0]
         self._r = [0.0, 0.0, 0.0]
         self._pose_at: tuple[float, np.ndarray] | None = None
+        self._v_target = 0.0  # the last estimate of the target's speed along its segment
         self.L = 0.0
         self.d = np.zeros(6)
         self._d = [0.0] * 6
@@ -193,12 +201,20 @@ class StraightApproach(Progress):
         else:
             self.restart()
 
-    def retarget_from_reference(self, target: np.ndarray) -> None:
+    def retarget_from_reference(self, target: np.ndarray, *, dt: float | None = None) -> None:
         """A new segment from the present reference pose T(s) to ``target``: the reference
         goes on without a jump, its motion (ṡ, s̈ along the old direction d) projected on
         the new direction d′ as ṡ′ = ṡ⟨d, d′⟩_W, s̈′ = s̈⟨d, d′⟩_W (never backwards).
-        Equal to ``retarget(target, pose(s), ṡ·d, s̈·d)``."""
+        Equal to ``retarget(target, pose(s), ṡ·d, s̈·d)``.
+
+        With ``dt`` [s], the time since the previous target: the target's own velocity,
+        τ = [Δp; log(R R_prevᵀ)]/dt, gives the speed v = ⟨τ, d′⟩_W at which the progress
+        arrives at the end of the new segment (``end_speed``), so that a target that moves
+        is met moving instead of being chased from behind by a reference that plans to rest
+        on it. A target that jumps (a switch) is not moving: v counts only when two
+        successive estimates agree within 25 %, and the smaller is taken."""
         d_old, sd, sdd = self._d, self.sd, self.sdd
+        tau = self._target_rate(target, dt) if dt is not None else None
         p, R = self._pose_rows(self.s)
         self._segment(target, p, R)
         if self.L > 0.0:
@@ -208,8 +224,32 @@ class StraightApproach(Progress):
             v = max(sd * proj, 0.0)
             a = sdd * proj
             self.restart(v, a if v > 0.0 else max(a, 0.0))
+            if tau is not None:
+                v_t = max(tau[0] * d[0] + tau[1] * d[1] + tau[2] * d[2]
+                          + l2 * (tau[3] * d[3] + tau[4] * d[4] + tau[5] * d[5]), 0.0)
+                prev, self._v_target = self._v_target, v_t
+                if v_t > 0.0 and prev > 0.0 and abs(v_t - prev) <= 0.25 * max(v_t, prev):
+                    self.end_speed = min(v_t, prev)
         else:
             self.restart()
+            self._v_target = 0.0
+
+    def _target_rate(self, target: np.ndarray, dt: float) -> list[float] | None:
+        """τ = [p − p_prev; log(R R_prevᵀ)]/dt of ``target`` after the present one (base
+        axes), or None without a present one."""
+        if self.target is None or not dt > 0.0:
+            return None
+        t, o = target.tolist(), self.target.tolist()
+        M = [[ti[0] * oj[0] + ti[1] * oj[1] + ti[2] * oj[2] for oj in o[:3]] for ti in t[:3]]
+        x, y, z, _ = so3_log_rows(M)
+        k = 1.0 / dt
+        return [(t[0][3] - o[0][3]) * k, (t[1][3] - o[1][3]) * k, (t[2][3] - o[2][3]) * k,
+                x * k, y * k, z * k]
+
+    def hold_target(self) -> None:
+        """The target did not move this period: the progress plans to rest on it."""
+        self.end_speed = 0.0
+        self._v_target = 0.0
 
     def _segment(self, target: np.ndarray, p0: list[float], R0: list[list[float]]) -> None:
         """The segment from (p0, R0) (floats) to ``target``: Δp, r = log(R_d R₀ᵀ), L, d."""

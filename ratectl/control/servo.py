@@ -104,7 +104,9 @@ class Servo:
             elif self._pursuit:  # from the measured pose, the progress's own motion carried on
                 ap.retarget(target, T, ap.sd * ap.d, ap.sdd * ap.d)
             else:  # a new target: from the reference, which goes on without a jump
-                ap.retarget_from_reference(target)
+                ap.retarget_from_reference(target, dt=dt)
+        else:
+            ap.hold_target()
         e = cyc.e = np.zeros(6)
         cyc.ep, cyc.eo = pose_error_into(e, target, T)
         e_ref = np.zeros(6)

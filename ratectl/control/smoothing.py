@@ -265,14 +265,16 @@ class ProgressProfile:
         self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
 
     def step(self, x: float, v: float, a: float, *, vmax: float, amax: float, jmax: float,
-             dt: float, brake: float | None = None):
+             dt: float, brake: float | None = None, v_end: float = 0.0):
         """From progress 0 at speed ``v`` and acceleration ``a``, the time-optimal motion to
-        rest at ``x`` under |ẋ| ≤ vmax, |x⃛| ≤ jmax, accelerating toward ``x`` by at most
-        ``amax`` and decelerating by at most ``brake`` (default amax): returns its (progress,
-        speed, acceleration) one period ``dt`` later, or None if Ruckig finds no motion."""
+        ``x``, arriving there at speed ``v_end`` (0: at rest; clipped into [0, vmax]), under
+        |ẋ| ≤ vmax, |x⃛| ≤ jmax, accelerating toward ``x`` by at most ``amax`` and
+        decelerating by at most ``brake`` (default amax): returns its (progress, speed,
+        acceleration) one period ``dt`` later, or None if Ruckig finds no motion."""
         if self._otg.delta_time != dt:
             self._otg.delta_time = dt
         inp = self._inp
+        inp.target_velocity = [min(max(v_end, 0.0), vmax)]
         inp.current_velocity = [v]
         inp.target_position = [x]
         inp.max_velocity = [vmax]
