@@ -10,37 +10,28 @@ The controller composes stage objects, each owning its state, in the order of a 
 (``_cycle``):
 
 1. the gate (`ratectl.control.gate`): shapes and types, and the halt policy for values;
-2. a target alone is a servo (`ratectl.control.servo`): the tool moves on the straight
-   line to it (`StraightApproach`), a jerk-limited progress within the joint limits
-   mapped onto it (`ProgressLimits`), and, where that line is blocked, in joint space to
-   an inverse-kinematics solution (`JointLine`); a twist alone is a jog along it
-   (`ratectl.control.jog`); both share `ratectl.control.progress_stage`. Otherwise the
-   pose error and the solve (``_error``, ``_solve``, here) through the solver's validated
-   entry (`Solver.solve_validated`);
-3. the limits (`ratectl.control.limiter`), in this order: velocity (uniform scaling, which
-   keeps the direction of motion), acceleration (the change of q̇ per cycle is scaled to
-   fit amax·dt), joint position (each joint may only move as fast as it can still stop
-   before its limit at amax whatever the later periods are, ``braking_speed_any_dt``;
-   without an acceleration limit that is d/dt, so the velocity limit alone enforces the
-   range; after a fault — a measured q inside the stopping distance or beyond a limit —
-   the position side wins over amax, status ``limit-recovery``). A solver that enforces
-   the limits itself (the QP, ``enforces_limits = True``) is not limited again: its bounds
-   and any extra rows (collision limits) are kept as solved and only reported;
-4. optionally a Ruckig velocity filter (jerk-limited, ``_smooth``) inside its position
-   guard (`ratectl.control.smooth_stage`), and the integration ``q_next = q + q̇ dt`` (or
-   Ruckig's exact integral);
+2. a target alone is a servo (`ratectl.control.servo`: the straight line to it, a
+   jerk-limited progress within the joint limits, a joint-space alternative where the line
+   is blocked); a twist alone is a jog along it (`ratectl.control.jog`); both share
+   `ratectl.control.progress_stage`. Otherwise the pose error and the solve
+   (`ratectl.control.solve_stage`) through the solver's validated entry
+   (`Solver.solve_validated`);
+3. the limits (`ratectl.control.limiter`): velocity (uniform scaling), acceleration (the
+   change of q̇ scaled into amax·dt), joint position (braking in time whatever the later
+   periods are; after a fault the position side wins, ``limit-recovery``). A solver that
+   enforces the limits itself (``enforces_limits``) is only reported;
+4. optionally a Ruckig velocity filter (``_smooth``) inside its position guard
+   (`ratectl.control.smooth_stage`), and the integration ``q_next = q + q̇ dt``;
 5. the servo's arrival status and the `Command` (``_command``); a halt's braking motion is
-   `ratectl.control.halt`, the tasks hook `ratectl.control.tasks_hook`.
+   `ratectl.control.halt`, the tasks hook `ratectl.control.tasks_hook`, the options
+   `ratectl.control.options`.
 
-Every call returns a frozen `Command` whose ``status`` says what happened
-(see `STATUSES`). Bad *values* never raise in the loop: a non-finite q,
-target, twist or dt, a target that is not a rigid pose (scaled, mirrored), a target older
-than ``timeout``, or a solver failure brings a
-**safe halt** — the previous q̇ decelerates to zero within the acceleration (and, with
-smoothing, jerk) limits — with the reason in ``Command.reason``. A non-finite input
-latches the halt until `ResolvedRateController.reset`; a stale target or a
-solver failure does not (the next good cycle resumes). Wrong *shapes* are programming
-errors and raise `InputError` at once.
+Every call returns a frozen `Command` whose ``status`` says what happened (see
+`STATUSES`). Bad *values* never raise in the loop: a non-finite input, a target that is not
+a rigid pose, a target older than ``timeout``, or a solver failure brings a **safe halt**
+(the previous q̇ decelerates to zero within the limits) with the reason in
+``Command.reason``; a non-finite input latches it until `ResolvedRateController.reset`.
+Wrong *shapes* are programming errors and raise `InputError` at once.
 """
 
 from __future__ import annotations
@@ -51,23 +42,22 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import solvers
-from ..arrays import shared_zeros
 from ..checks import positive_number
-from ..errors import InputError, RatectlError, SingularityError
+from ..errors import InputError, RatectlError
 from ..model.limits import Limits
 from ..solvers.base import solver_declares, validated_solve
-from ..spatial import pose_error_into
 from .command import _RANK, STATUSES, Command, make_command
-from .cycle import Cycle, Motion, _finite_sum
+from .cycle import Cycle, Motion
 from .gate import Gate, _checked_stamp, _float_array
 from .halt import brake
 from .jog import JogStage
 from .limiter import Limiter
+from .options import _checked_filter, _checked_gain, _checked_solver, default_solver
 from .progress_stage import ProgressStage
 from .servo import Servo
 from .smooth_stage import SmoothGuard
 from .smoothing import VelocityFilter
+from .solve_stage import SolveStage
 from .tasks_hook import tasks_command, tasks_stage
 
 if TYPE_CHECKING:
@@ -75,61 +65,6 @@ if TYPE_CHECKING:
     from ..solvers.base import Solver
 
 __all__ = ["ResolvedRateController", "Command", "STATUSES", "default_solver"]
-
-
-def _checked_solver(solver):
-    """The solver option: None → the default solver; an instance with a ``solve`` method;
-    otherwise InputError (a solver class instead of an instance is named as such)."""
-    solver = default_solver() if solver is None else solver
-    if isinstance(solver, type):
-        raise InputError(f"solver must be a solver instance: pass {solver.__name__}() (with its "
-                         f"options), not the class {solver.__name__}", argument="solver", value=solver)
-    if not callable(getattr(solver, "solve", None)):
-        raise InputError("solver must have a solve(J, xi, ...) method (see ratectl.solvers), "
-                         f"got {type(solver).__name__}", argument="solver", value=solver)
-    return solver
-
-
-def _checked_gain(gain) -> np.ndarray:
-    """The gain option as 6 non-negative finite values [1/s], or InputError."""
-    try:
-        K = np.broadcast_to(np.asarray(gain, dtype=float), (6,)).copy()
-    except (TypeError, ValueError):  # not numbers, or not a scalar / 6 values
-        K = None
-    if K is None or not np.all(np.isfinite(K)) or np.any(K < 0):
-        raise InputError(f"gain must be a non-negative scalar or 6 values [1/s], got {gain!r}",
-                         argument="gain", value=gain)
-    return K
-
-
-def _checked_filter(smoothing, chain: Chain) -> VelocityFilter | None:
-    """The smoothing option as a filter (None without smoothing), or InputError."""
-    if smoothing is False or smoothing is None:
-        return None
-    n = chain.dof
-    if smoothing is True:
-        for name in ("vmax", "amax", "jmax"):
-            a = getattr(chain, name)
-            if not np.all(np.isfinite(a)):
-                raise InputError(f"smoothing=True needs finite {name} on every joint of {chain.name!r}; "
-                                 f"give them with chain.with_limits({name}=...) (or the importer's "
-                                 f"{name}= keyword), or pass a VelocityFilter", argument="smoothing",
-                                 value=a)
-        filt = VelocityFilter(n, dt=1e-3, vmax=chain.vmax, amax=chain.amax, jmax=chain.jmax)
-    elif isinstance(smoothing, VelocityFilter):
-        filt = smoothing
-    else:
-        raise InputError("smoothing must be False, True or a ratectl.smoothing.VelocityFilter, "
-                         f"got {smoothing!r}", argument="smoothing", value=smoothing)
-    if filt.dof != n:
-        raise InputError(f"the VelocityFilter has {filt.dof} joints, the chain {n}",
-                         argument="smoothing", value=smoothing)
-    return filt
-
-
-def default_solver():
-    """The controller's default inverse-velocity solver: ``rc.solvers.AdaptiveDLS()``."""
-    return solvers.AdaptiveDLS()
 
 
 class ResolvedRateController:
@@ -199,6 +134,9 @@ class ResolvedRateController:
         # the stages, in the order of a cycle; they share the last command (`Motion`)
         self._m = m = Motion(n)
         self._gate = Gate(n, self.timeout)
+        self._solver_stage = SolveStage(chain, gain=self.gain, entry=self._solve_entry, limits=self.limits,
+                                        motion=m, filter=self.filter, halt=self._halt)
+        self._error, self._solve = self._solver_stage.error, self._solver_stage.solve
         self._progress = ProgressStage(chain, self.solver, self.limits, self.filter,
                                        stop_sigma=self.stop_sigma)
         self._servo = Servo(chain, self._progress, m, self.filter, gain=self.gain,
@@ -334,61 +272,6 @@ class ResolvedRateController:
         None when the cycle may proceed."""
         halt = self._gate.check(q, target, twist, dt, qd_ff, qdd_ff, stamp, self.time)
         return None if halt is None else self._halt(q, halt[1], halt[0])
-
-    # --- the pose error and the twist to resolve
-    def _error(self, q, target, twist) -> Cycle:
-        """fk and J at q, the pose error e = [p_d − p; log(R_d Rᵀ)] and the twist
-        ξ = ξ_ff + K e to resolve; returns the cycle's working state."""
-        cyc = Cycle()
-        cyc.target = target is not None
-        if target is not None:
-            T, cyc.J = self.chain.fk_jacobian(q)
-            e = cyc.e = np.zeros(6)
-            cyc.ep, cyc.eo = pose_error_into(e, target, T)
-            xi = self.gain * e
-            if twist is not None:
-                xi += twist
-        else:
-            # no target: J alone (its kernel shares fk_jacobian's expressions: the same J, and
-            # no pose to build), and no error (the Command's, read-only for good)
-            cyc.J = self.chain.jacobian(q)
-            cyc.e = shared_zeros(6)
-            cyc.ep = cyc.eo = 0.0
-            xi = twist.copy() if twist is not None else np.zeros(6)
-        cyc.xi = xi
-        return cyc
-
-    # --- the inverse-velocity solve
-    def _solve(self, cyc: Cycle, q, dt, qd_ff) -> Command | None:
-        """q̇ = q̇_ff + solver(J, ξ); a solver failure or a non-finite answer halts (returns
-        the halt's Command), otherwise fills ``cyc.qd``, ``cyc.res`` and the status lists."""
-        # with smoothing the filter bounds the acceleration (and the jerk) of what is
-        # commanded; a solver's acceleration box around the filter's lagging output would
-        # throttle it (the QP's answer at q̇_f ± amax·dt keeps Ruckig's target within one
-        # period of its state: the arm then accelerates at a fraction of amax)
-        qd_prev = self._m.qd if self.filter is None else None
-        try:
-            # the solver's entry for validated inputs (`Solver.solve_validated`): q, dt and
-            # q̇_ff were checked by this cycle, the previous q̇ is this controller's finite
-            # state, J and ξ its own float arrays; it returns the correction on top of q̇_ff
-            res = self._solve_entry(cyc.J, cyc.xi, limits=self.limits, q=q, qd_prev=qd_prev, dt=dt,
-                                    qd_ff=qd_ff)
-        except SingularityError as err:
-            return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
-                              error=cyc.e, ep=cyc.ep, eo=cyc.eo)
-        except (RatectlError, np.linalg.LinAlgError) as err:
-            return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
-        qd = res.qd if qd_ff is None else res.qd + qd_ff
-        if not _finite_sum(qd):
-            return self._halt(q, dt, "solver returned a non-finite q̇", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
-        cyc.res = res
-        cyc.qd = qd
-        cyc.active = list(res.limits_active)
-        cyc.scale = float(res.velocity_scale)
-        cyc.smin = None  # σ_min: read from res only when needed (a QP computes it lazily)
-        if res.velocity_policy != "none":
-            cyc.flags.append("velocity-scaled")
-        return None
 
     # --- smoothing and integration
     def _smooth(self, cyc: Cycle, q, dt, qdd_ff, near: bool = False) -> Command | None:
