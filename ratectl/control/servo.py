@@ -114,8 +114,11 @@ class Servo:
         lag = ap.weighted_norm(e_ref)
         if lag > self._lag_max:
             # the arm is held off its line (a solver's extra rows such as collision avoidance,
-            # or a robot that lags): a new straight segment from where it is, with its motion
-            ap.retarget(target, T, J @ self._m.qd, J @ self._m.qdd)
+            # or a robot that lags): a new straight segment from where it is, with its
+            # velocity; its acceleration is the transient of being held off (with smoothing,
+            # the filter's), and carried onto a short line it can leave no jerk-limited stop
+            # on it: the arm overshoots, is held off again, and circles the target
+            ap.retarget(target, T, J @ self._m.qd, np.zeros(6))
             e_ref[:] = 0.0
             lag = 0.0
             cyc.reasons.append("held off the straight line by more than "
