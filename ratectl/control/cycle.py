@@ -57,14 +57,16 @@ def _scaled_like(wanted: np.ndarray, clipped: np.ndarray) -> np.ndarray:
 
 class Motion:
     """The motion the controller last commanded: ``qd`` q̇ [rad/s or m/s] and ``qdd`` q̈
-    [rad/s² or m/s²], (n,) each. One object shared by the controller (which writes it when
-    it commands) and its stages (which read it as the previous cycle's)."""
+    [rad/s² or m/s²], (n,) each, and ``q_next`` the position it commanded (None before the
+    first command). One object shared by the controller (which writes it when it commands)
+    and its stages (which read it as the previous cycle's)."""
 
-    __slots__ = ("qd", "qdd")
+    __slots__ = ("qd", "qdd", "q_next")
 
     def __init__(self, n: int) -> None:
         self.qd = np.zeros(n)
         self.qdd = np.zeros(n)
+        self.q_next: np.ndarray | None = None
 
 
 class Cycle:

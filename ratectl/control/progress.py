@@ -163,7 +163,8 @@ class ProgressLimits:
         return repr(self.names[i])
 
     def caps(self, q: np.ndarray, w: np.ndarray, *, dt: float, sigma: float | None = None,
-             w_prime: np.ndarray | None = None, exact=None) -> ProgressCaps:
+             w_prime: np.ndarray | None = None, exact=None,
+             q_lead: np.ndarray | None = None) -> ProgressCaps:
         """The bounds on ṡ, s̈, s⃛ at ``q`` for motion ``q̇ = ṡ w`` (ṡ ≥ 0).
 
         Args:
@@ -172,6 +173,9 @@ class ProgressLimits:
             dt: the coming period [s].
             sigma: σ_min(J(q)) if known (else computed when needed).
             w_prime: dw/ds (n,) if known (the curvature term), else None.
+            q_lead: the position the last command sent the arm to (n,), or None: an arm
+                that lags its command will still get there, so a joint's room to its limit
+                is measured from whichever of q and q_lead is nearer the limit.
             exact: ``f(q) -> (σ_min, share)``: σ_min(J) at any q and the share of the
                 direction's exact joint speed |J⁺d|² in the weakest direction, for the
                 singularity look-ahead (None: no singularity bound).
@@ -219,6 +223,9 @@ class ProgressLimits:
         # position limits: joints moving toward a limit brake in time at the share of amax
         if self._has_p:
             ql = q.tolist()
+            if q_lead is not None:  # the room ahead of whichever is nearer the limit
+                ql = [max(a, b) if wi > 0.0 else min(a, b)
+                      for a, b, wi in zip(ql, q_lead.tolist(), wl, strict=True)]
             lower, upper, two_over_a = self._l_lower, self._l_upper, self._l_two_over_a
             jl = self._l_jerk
             p_min, jp = inf, -1
