@@ -58,7 +58,7 @@ from .servo import Servo
 from .smooth_stage import SmoothGuard
 from .smoothing import VelocityFilter
 from .solve_stage import SolveStage
-from .tasks_hook import tasks_command, tasks_stage
+from .tasks_hook import smoothed_tasks_motion, tasks_command, tasks_stage
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -116,7 +116,6 @@ class ResolvedRateController:
                                  argument="limits", value=limits)
             limits = chain
         self.limits = None if limits is None else Limits.of(limits, n)
-        self._smoothing_option = smoothing
         self._all_joints = np.ones(n, dtype=bool)
         self.filter: VelocityFilter | None = _checked_filter(smoothing, chain)
         self.position_tolerance = positive_number("position_tolerance", position_tolerance, unit="[m]")
@@ -343,8 +342,7 @@ class ResolvedRateController:
     # `ratectl.control.tasks_stage.TasksStage`; `ratectl.control.tasks_hook` wires it in.
     def _tasks_hook(self, tasks, collision) -> None:
         """``tasks=`` / ``collision=``: build the `TasksStage` (None when neither is given)."""
-        self._tasks = tasks_stage(self.chain, tasks, collision, smoothed=self.filter is not None,
-                                  smoothing=self._smoothing_option)
+        self._tasks = tasks_stage(self.chain, tasks, collision)
 
     def _tasks_step(self, q, dt, stamp) -> Command:
         """One cycle of the tasks: validate, halt on bad values, solve the cascade, command."""
@@ -353,16 +351,34 @@ class ResolvedRateController:
         if halt is not None:
             return halt
         assert self._tasks is not None
+        smoothed = self.filter is not None
         try:
-            res = self._tasks.solve(q, dt=dt, qd_prev=self._m.qd, limits=self.limits)
+            # with smoothing the filter bounds q̈ and q⃛ of what is commanded: no acceleration
+            # box around its lagging output (as for a smoothed QP)
+            res = self._tasks.solve(q, dt=dt, qd_prev=None if smoothed else self._m.qd, limits=self.limits)
         except (RatectlError, np.linalg.LinAlgError) as err:
             return self._halt(q, dt, f"tasks: {err}")
-        qd = res.qd.copy()
-        qdd = (qd - self._m.qd) / dt
-        q_next = q + qd * dt
+        flags: tuple[str, ...] = ()
+        reasons: tuple[str, ...] = ()
+        if smoothed:
+            try:
+                out = smoothed_tasks_motion(
+                    res, q, dt, smooth=self._smooth, near=self._limiter._near_position_limit(q, dt),
+                    filter=self.filter, qd_prev=self._m.qd,
+                    resolve=lambda: self._tasks.solve(q, dt=dt, qd_prev=self._m.qd, limits=self.limits))
+            except (RatectlError, np.linalg.LinAlgError) as err:
+                return self._halt(q, dt, f"tasks: {err}")
+            if isinstance(out, Command):
+                return out
+            res, qd, qdd, q_next, flags, reasons = out
+        else:
+            qd = res.qd.copy()
+            qdd = (qd - self._m.qd) / dt
+            q_next = q + qd * dt
         t0 = self._advance(q, q_next, qd, qdd, dt)
         assert self._q_last is not None
-        return tasks_command(self._tasks, self.chain, res, q_next, qd, qdd, t0, dt, self._q_last)
+        return tasks_command(self._tasks, self.chain, res, q_next, qd, qdd, t0, dt, self._q_last,
+                             flags=flags, reasons=reasons)
 
     # ------------------------------------------------------------------ halting
     def _halt(self, q, dt, reason, *, status="halted", sigma_min=float("nan"), error=None,

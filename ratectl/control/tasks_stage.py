@@ -47,6 +47,8 @@ class TasksResult:
         collision_distance: the smallest distance over the collision pairs near enough to be
             checked [m] (inf without collision models or when none is near).
         cascade: the cascade's full `ratectl.solvers.priority.CascadeResult`.
+        damper_rows: the collision dampers G q̇ ≤ h of this step, ``(G, h)`` (k, n) and
+            (k,), or None without collision models (read-only).
     """
 
     qd: np.ndarray
@@ -58,10 +60,13 @@ class TasksResult:
     limits_active: tuple[str, ...]
     collision_distance: float
     cascade: CascadeResult
+    damper_rows: tuple[np.ndarray, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         for name in ("qd", "residuals", "task_errors"):
             object.__setattr__(self, name, read_only(getattr(self, name)))
+        if self.damper_rows is not None:
+            object.__setattr__(self, "damper_rows", tuple(read_only(a) for a in self.damper_rows))
 
     # what the controller's report reads from a solver result
     @property
@@ -181,4 +186,5 @@ class TasksStage:
                     reasons.append(f"joint(s) {by_kind[kind]} at their {kind} bound")
         return TasksResult(qd=res.qd.copy(), priorities=priorities, residuals=res.residuals,
                            task_errors=errors, flags=tuple(dict.fromkeys(flags)), reasons=tuple(reasons),
-                           limits_active=active, collision_distance=float(closest), cascade=res)
+                           limits_active=active, collision_distance=float(closest), cascade=res,
+                           damper_rows=(G, h) if self.collision else None)

@@ -109,3 +109,38 @@ def test_damper_rows_are_the_distance_rate():
             assert -row @ qd == pytest.approx(ddot, abs=1e-4 * (1 + abs(ddot)))
             checked += 1
     assert checked >= 5
+
+
+def test_smoothed_tasks_hold_the_dampers_and_the_jerk_limit():
+    """tasks= with smoothing=True: the cascade's q̇ goes through the Ruckig filter (|q̈| ≤ amax,
+    |q⃛| ≤ jmax of what is commanded), and the collision dampers hold on what is commanded:
+    the ball stays beyond 15 mm of the hand with the 2 cm margin. A period where the filter's
+    lag would break a damper commands the cascade's q̇ within amax instead, and says so."""
+    ch = panda_chain(URDF)
+    ch = ch.with_limits(jmax=rc.robots.panda().jmax)  # the URDF has none: the built-in Panda's
+    T0 = ch.fk(HOME)
+    centre = T0[:3, 3] + np.array([0.15, 0.0, 0.0])
+    obs = rc.collision.Obstacles.from_urdf(URDF, ch, [rc.collision.Sphere(centre, 0.04)], margin=0.02,
+                                           links=["panda_hand"])
+    T = T0.copy()
+    T[:3, 3] += [0.3, 0.0, 0.0]  # straight through the ball
+    tool = rc.tasks.Pose(priority=0, target=T, gain=3.0)
+    ctrl = rc.ResolvedRateController(ch, tasks=[tool, rc.tasks.Posture(HOME, priority=1, gain=0.5)],
+                                     collision=[obs], smoothing=True)
+    dt = 2e-3
+    q = HOME.copy()
+    dmin, statuses = np.inf, set()
+    qdd_prev = np.zeros(ch.dof)
+    for _ in range(1500):
+        cmd = ctrl.step(q, dt=dt)
+        assert np.all(np.abs(cmd.qd) <= ch.vmax * (1 + 1e-9))
+        assert np.all(np.abs(cmd.qdd) <= ch.amax * (1 + 1e-6))
+        if "break a collision damper" not in cmd.reason:
+            assert np.all(np.abs(cmd.qdd - qdd_prev) <= ch.jmax * dt * (1 + 1e-6) + 1e-9)
+        qdd_prev = cmd.qdd
+        q = cmd.q_next.copy()
+        dmin = min(dmin, float(obs.distances(q).min()))
+        statuses.update(cmd.flags)
+    assert dmin >= 0.015
+    assert "collision-avoidance" in statuses
+    assert np.all(q >= ch.lower) and np.all(q <= ch.upper)
