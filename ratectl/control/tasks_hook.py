@@ -64,7 +64,8 @@ def smoothed_tasks_motion(res: TasksResult, q: np.ndarray, dt: float, *, smooth:
     it returns. The filter lags the cascade's answer, so the collision dampers G q̇ ≤ h are
     checked on what it commands: where one would break, the cascade is solved again within
     amax of the last command (``resolve()``) and that is commanded as it is, the filter
-    restarting from it (the jerk limit does not hold for that period; the dampers do).
+    restarting from it at rest in acceleration (the jerk limit does not hold for that
+    period; the dampers do).
     Returns ``(res, q̇, q̈, q_next, flags, reasons)``."""
     cyc = Cycle()
     cyc.qd = res.qd.copy()
@@ -81,7 +82,9 @@ def smoothed_tasks_motion(res: TasksResult, q: np.ndarray, dt: float, *, smooth:
         qdd = (qd - qd_prev) / dt
         q_next = q + qd * dt
         assert filter is not None
-        filter.reset(qd, np.clip(qdd, -filter.amax, filter.amax))
+        # (at zero acceleration: a filter restarted with the period's q̈ ramps it down at
+        # jmax only, and with a low jmax carries the joint past vmax)
+        filter.reset(qd)
         flags = ("collision-avoidance",)
         reasons = ("the smoothed motion would break a collision damper: the cascade's q̇ within amax "
                    "is commanded (the jerk limit does not hold this period)",)
