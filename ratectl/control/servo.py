@@ -275,6 +275,8 @@ class Servo:
                                f"target, {cyc.approach:.0%} of the way along the straight line to it, "
                                f"which is blocked: {cyc.blocked}")
             return
+        if self._joint_line.target is not None:
+            return  # on its way in joint space (taken this period, where the line is blocked)
         # stopped short: below 1 % of that, now and one time constant ahead (an arm that
         # creeps toward a singular target, damped, is still on its way); once said for this
         # target, below 10 % (the last settling does not flicker back to "regular")
