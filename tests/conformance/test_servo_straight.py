@@ -86,3 +86,17 @@ def test_a_blocked_line_is_reached_or_reported(index, smoothing):
                          ids=[f"{a}-{'smooth' if s else 'plain'}-{d * 1e3:g}ms" for a, s, d in GRID])
 def test_straight_to_the_target_full_sweep(arm, smoothing, dt):
     _judge(arm, smoothing, dt, seed=1, **servo_sweep.SLOW_SIZE)
+
+
+@pytest.mark.parametrize("smoothing", [False, True], ids=["plain", "smooth"])
+def test_a_turn_blocked_by_a_boundary_singularity_goes_on_in_joint_space(smoothing):
+    """example-robot-data's Panda, a 24° pure turn (case 11 of the full sweep) whose geodesic
+    heads into a boundary singularity: the line stops before it and the arm goes on in joint
+    space to the target. The cycle that takes the alternative is neither a halt nor
+    ``target-unreachable`` (a loop that ends on those stopped there)."""
+    name = "erd:panda"
+    case = _cases(name, *servo_sweep.SLOW_SIZE.values(), seed=1)[11]
+    assert case.kind == "turn"
+    out = servo_sweep.run_case(_arm(name), case, smoothing=smoothing, dt=1e-3)
+    v = out.violations()
+    assert not v, f"{out.where}: " + "; ".join(v) + f"\n    [{out.summary()}]"
