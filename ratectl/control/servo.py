@@ -159,24 +159,23 @@ class Servo:
             cyc.approach_qd = cyc.qd
         if caps is not None:
             moving = ap.sd > 0.0 or speed > 0.0
-            n_flags = len(cyc.flags)
+            cyc.approach = ap.s / ap.L
             if ap.blocked:  # the stop is planned before a block (a limit, a singularity)
                 at_block = not moving and ap.room_left <= _AT_BLOCK
                 caps.binding, caps.reason = caps.room_by, caps.room_reason
-                caps.blocked_by = caps.room_by if at_block else ""
-                self._progress.flags(cyc, q, caps, moving, True)
-                cyc.blocked = caps.room_reason if at_block else ""
+                block: str | None = caps.room_reason if at_block else ""
+                if block and self.blocked == "joint-space":
+                    block = self._try_joint_line(cyc, q, target, block)
+                if block is not None:  # at the block, or braking before it
+                    caps.blocked_by = caps.room_by if at_block else ""
+                    self._progress.flags(cyc, q, caps, moving, True)
+                    cyc.blocked = block
+                # (else the arm goes on in joint space: it is not halted at the block, and the
+                # reason says where the line is blocked and what the arm does instead)
             else:
                 if caps.binding in ("position", "singularity"):
                     caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
                 self._progress.flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
-            cyc.approach = ap.s / ap.L
-            if cyc.blocked and self.blocked == "joint-space" and self._try_joint_line(cyc, q, target):
-                # the arm moves on in joint space: not halted at the block (the reason says
-                # where the line is blocked and what the arm does instead)
-                del cyc.flags[n_flags:]
-                if "position" in cyc.active:
-                    cyc.active.remove("position")
         return None
 
     def _end_bounds(self, ap: StraightApproach, q, target, dt) -> None:
@@ -206,29 +205,28 @@ class Servo:
         self._joint_line.reset()
         self._ik_tried = None
 
-    def _try_joint_line(self, cyc: Cycle, q, target) -> bool:
-        """The straight line is blocked where the arm stands: the alternative is a straight
-        line in joint space (`JointLine`) to an inverse-kinematics solution of the target on
-        the arm's own branch (the IK core `ratectl.solvers.ik`, from the measured q, steps of
-        at most 0.1 rad, within the joint limits). Taken when that solution is verified (the
-        pose within a tenth of the tolerances); then the tool leaves its line, the reason
-        says why, and True is returned; otherwise the line stays blocked
-        (``target-unreachable``). Tried once per target."""
+    def _try_joint_line(self, cyc: Cycle, q, target, block: str) -> str | None:
+        """The straight line is blocked where the arm stands (by ``block``, a sentence): the
+        alternative is a straight line in joint space (`JointLine`) to an inverse-kinematics
+        solution of the target on the arm's own branch (the IK core `ratectl.solvers.ik`,
+        from the measured q, steps of at most 0.1 rad, within the joint limits). Taken when
+        that solution is verified (the pose within a tenth of the tolerances): then the tool
+        leaves its line, the reason says why, and None is returned; otherwise the line stays
+        blocked (``target-unreachable``) and the block's sentence is returned. Tried once
+        per target."""
         if self._ik_tried is not None and _same(target, self._ik_tried):
-            return False
+            return block
         self._ik_tried = target.copy()
         res = ik_iterate(self.chain, target, q, tol_position=0.1 * self.position_tolerance,
                          tol_orientation=0.1 * self.orientation_tolerance, max_iter=200,
                          damping=0.05, max_step=0.1)
         if not res.converged:
-            cyc.blocked += "; no inverse-kinematics solution within the joint limits from here"
-            return False
+            return block + "; no inverse-kinematics solution within the joint limits from here"
         self._joint_line.start(target, q, np.array(res.q), self._m.qd)
-        self._line_blocked = cyc.blocked
-        cyc.reasons.append(f"the straight line is blocked ({cyc.blocked}): moving in joint space to an "
+        self._line_blocked = block
+        cyc.reasons.append(f"the straight line is blocked ({block}): moving in joint space to an "
                            "inverse-kinematics solution of the target instead (the tool leaves the line)")
-        cyc.blocked = ""
-        return True
+        return None
 
     def _joint_servo(self, cyc: Cycle, q, dt, target, T, J) -> Command | None:
         """One period on the `JointLine`: q̇ = ṡ̄·u + K·(q(s) − q) (the progress within the
