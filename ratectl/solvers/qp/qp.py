@@ -131,7 +131,6 @@ class QP(Solver):
         # with the same J (the direction of a progress, then the command), and the second
         # solve only needs b = Jᵀξ and two triangular solves ((entries, shape, P, σ, factor))
         self._terms: tuple | None = None
-        self._factor: np.ndarray | None = None  # P's factor for this solve, when known
         self._pd = self._lam2 > 0 or (self.objective is not None and self.objective_weight > 0)
         self._dls = DLS(damping=max(self.damping, 1e-6), velocity_policy=None,
                         task_weights=task_weights, joint_weights=joint_weights)
@@ -306,15 +305,13 @@ class QP(Solver):
             d = np.full(n, self._lam2) if self._wq is None else self._lam2 * self._wq
             reg = self._reg[n] = np.diag(d)
             self._reg_small[n] = bool(np.all(d < 1e300))
-        self._factor = None
         if self._rows is None and self._reg_small[n]:
             # unweighted J, checked by _check_problem: ‖J‖²_F + ‖ξ‖² < 1e290 bounds every
             # entry of JᵀJ and Jᵀξ by 1e290 (Cauchy–Schwarz), so P and b are finite and the
             # products cannot overflow (no floating-point state to set, no check to make)
             terms = self._terms
             if (self.objective is None and terms is not None and terms[1] == J.shape
-                    and terms[0] == entries):  # the same J as the last solve: P, σ, P's factor
-                self._factor = terms[4]
+                    and terms[0] == entries):  # the same J as the last solve: its P and σ
                 return terms[3], terms[2], xiw.dot(Jw)
             JtJ = Jw.T.dot(Jw)
             P = JtJ + reg
@@ -362,13 +359,14 @@ class QP(Solver):
         status, niter, slack = "", 0, math.inf
         if not (self.shortcut and self._pd):
             return qd, held, status, niter, slack
-        factor = self._factor
-        if factor is not None:  # P factored by the last solve (the same J): two triangular solves
-            x0, info0 = _dpotrs(factor, b)
+        terms = self._terms
+        if terms is not None and terms[2] is not P:
+            terms = None  # (P is not the remembered J's: see _objective_terms)
+        if terms is not None and terms[4] is not None:  # factored by the last solve (same J)
+            x0, info0 = _dpotrs(terms[4], b)
         else:
             factor, x0, info0 = _dposv(P, b)
-            terms = self._terms
-            if info0 == 0 and terms is not None and terms[2] is P:
+            if info0 == 0 and terms is not None:
                 self._terms = (*terms[:4], factor)
         if info0 != 0:
             return qd, held, status, niter, slack
