@@ -129,34 +129,32 @@ class ProgressLimits:
         self.jmax = np.asarray(jmax, dtype=float) if jmax is not None else inf
         self._has_p = bool(np.any(np.isfinite(self.lower) | np.isfinite(self.upper)))
         share_a = self.accel_share * self.amax
-        self._share_a = share_a
+        share_j = self.accel_share * self.jmax
         # 2/a for the braking law at the share (a huge a for an absent limit: stop in one period)
-        self._two_over_a = np.where(np.isfinite(share_a), 2.0 / np.where(np.isfinite(share_a), share_a, 1.0),
-                                    0.0)
-        self._curv_a = (1.0 - self.accel_share) * self.amax
-        self._share_j = self.accel_share * self.jmax
+        two_over_a = np.where(np.isfinite(share_a), 2.0 / np.where(np.isfinite(share_a), share_a, 1.0), 0.0)
         # with jerk limits (a smoothed command) the stop toward a position limit is jerk-limited
-        fin_j = np.isfinite(self._share_j) & np.isfinite(share_a)
-        self._jerk_limited = ((np.where(fin_j, share_a, 1.0), np.where(fin_j, self._share_j, 1e300))
-                              if fin_j.any() else None)
-        self._jerk_slack = np.where(np.isfinite(self.vmax), self.vmax, 0.0)  # one period at vmax
+        fin_j = np.isfinite(share_j) & np.isfinite(share_a)
+        jerk_limited = fin_j.any()
         # a jerk-limited (smoothed) command keeps _VMAX_HEADROOM of vmax free: the feedback on
         # top of the progress and a bound that shrinks along the way must not meet the filter
         # at vmax with an acceleration it can no longer ramp out
-        self._vcap = self.vmax * (1.0 - _VMAX_HEADROOM) if self._jerk_limited is not None else self.vmax
-        # the same numbers as Python floats: `caps` runs every period on a handful of joints,
-        # where plain arithmetic beats numpy's per-call cost
-        self._l_vcap = np.broadcast_to(self._vcap, (n,)).tolist()
-        self._l_share_a = np.broadcast_to(share_a, (n,)).tolist()
-        self._l_share_j = np.broadcast_to(self._share_j, (n,)).tolist()
-        self._l_curv_a = np.broadcast_to(self._curv_a, (n,)).tolist()
-        self._l_lower = np.broadcast_to(self.lower, (n,)).tolist()
-        self._l_upper = np.broadcast_to(self.upper, (n,)).tolist()
-        self._l_two_over_a = np.broadcast_to(self._two_over_a, (n,)).tolist()
-        self._l_slack = np.broadcast_to(self._jerk_slack, (n,)).tolist()
-        self._l_jerk = (None if self._jerk_limited is None else
-                        (np.broadcast_to(self._jerk_limited[0], (n,)).tolist(),
-                         np.broadcast_to(self._jerk_limited[1], (n,)).tolist()))
+        vcap = self.vmax * (1.0 - _VMAX_HEADROOM) if jerk_limited else self.vmax
+
+        # as Python floats: `caps` runs every period on a handful of joints, where plain
+        # arithmetic beats numpy's per-call cost
+        def floats(a) -> list[float]:
+            return np.broadcast_to(a, (n,)).tolist()
+
+        self._l_vcap = floats(vcap)
+        self._l_share_a = floats(share_a)
+        self._l_share_j = floats(share_j)
+        self._l_curv_a = floats((1.0 - self.accel_share) * self.amax)
+        self._l_lower = floats(self.lower)
+        self._l_upper = floats(self.upper)
+        self._l_two_over_a = floats(two_over_a)
+        self._l_slack = floats(np.where(np.isfinite(self.vmax), self.vmax, 0.0))  # one period at vmax
+        self._l_jerk = ((floats(np.where(fin_j, share_a, 1.0)), floats(np.where(fin_j, share_j, 1e300)))
+                        if jerk_limited else None)
 
     def name(self, i: int) -> str:
         """The chain's name of joint ``i`` (quoted), for reasons."""
