@@ -9,11 +9,13 @@ on the SO(3) geodesic — parametrised by its length
 with Δp = p_d − p₀, r = log(R_d R₀ᵀ) (base axes, θ = ‖r‖) and ℓ a length that weighs the
 rotation (the chain's characteristic length). The unit direction d = [Δp; r]/L has
 ‖d‖_W = 1 in the metric ⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω. The progress s(t) is a
-jerk-limited 1-D motion to rest at L (Ruckig with one degree of freedom), re-planned every
+jerk-limited 1-D motion to L (Ruckig with one degree of freedom), re-planned every
 period from its own state under the bounds of `ProgressLimits` (joint limits mapped onto
 the progress). When the target changes, a new segment starts at the current reference pose,
 with the reference's motion projected onto the new direction, so a target that moves is
-pursued without a jump of the reference.
+pursued without a jump of the reference; the target's own velocity (from its last two
+poses) sets the speed at which the progress arrives at the end of the segment, so a target
+that moves steadily is met moving rather than chased to a stop.
 
 Jogging along a commanded twist uses the same bounds (`ratectl.control.jog`).
 """
@@ -33,6 +35,12 @@ __all__ = ["Progress", "StraightApproach", "JointLine"]
 
 _PLANNED = 0.5  # a stop is planned at this share of the progress's acceleration bound
 _URGENT = 2.0  # a late stop brakes with up to this multiple of the bound (all of amax at η = 1/2)
+
+
+def _rows_times_transpose(A: list[list[float]], B: list[list[float]]) -> list[list[float]]:
+    """A Bᵀ of two rotations given as their first three rows of floats (extra columns, such
+    as a pose's translation, are ignored)."""
+    return [[a[0] * b[0] + a[1] * b[1] + a[2] * b[2] for b in B[:3]] for a in A[:3]]
 
 
 def _stop_bound(v: float, a: float, brake: float, jerk: float) -> float:
@@ -174,9 +182,11 @@ class StraightApproach(Progress):
 
     def weighted_dot(self, a: np.ndarray, b: np.ndarray) -> float:
         """⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω for two twists (6,)."""
-        a0, a1, a2, a3, a4, a5 = a.tolist()
-        b0, b1, b2, b3, b4, b5 = b.tolist()
-        return a0 * b0 + a1 * b1 + a2 * b2 + self._l2 * (a3 * b3 + a4 * b4 + a5 * b5)
+        return self._wdot(a.tolist(), b.tolist())
+
+    def _wdot(self, a: list[float], b: list[float]) -> float:
+        """`weighted_dot` of two twists given as 6 floats."""
+        return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + self._l2 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5])
 
     def weighted_norm(self, e: np.ndarray) -> float:
         """‖e‖_W for a twist or a pose error (6,)."""
@@ -218,15 +228,12 @@ class StraightApproach(Progress):
         p, R = self._pose_rows(self.s)
         self._segment(target, p, R)
         if self.L > 0.0:
-            d, l2 = self._d, self._l2
-            proj = (d_old[0] * d[0] + d_old[1] * d[1] + d_old[2] * d[2]
-                    + l2 * (d_old[3] * d[3] + d_old[4] * d[4] + d_old[5] * d[5]))
+            proj = self._wdot(d_old, self._d)
             v = max(sd * proj, 0.0)
             a = sdd * proj
             self.restart(v, a if v > 0.0 else max(a, 0.0))
             if tau is not None:
-                v_t = max(tau[0] * d[0] + tau[1] * d[1] + tau[2] * d[2]
-                          + l2 * (tau[3] * d[3] + tau[4] * d[4] + tau[5] * d[5]), 0.0)
+                v_t = max(self._wdot(tau, self._d), 0.0)
                 prev, self._v_target = self._v_target, v_t
                 if v_t > 0.0 and prev > 0.0 and abs(v_t - prev) <= 0.25 * max(v_t, prev):
                     self.end_speed = min(v_t, prev)
@@ -240,8 +247,7 @@ class StraightApproach(Progress):
         if self.target is None or not dt > 0.0:
             return None
         t, o = target.tolist(), self.target.tolist()
-        M = [[ti[0] * oj[0] + ti[1] * oj[1] + ti[2] * oj[2] for oj in o[:3]] for ti in t[:3]]
-        x, y, z, _ = so3_log_rows(M)
+        x, y, z, _ = so3_log_rows(_rows_times_transpose(t, o))
         k = 1.0 / dt
         return [(t[0][3] - o[0][3]) * k, (t[1][3] - o[1][3]) * k, (t[2][3] - o[2][3]) * k,
                 x * k, y * k, z * k]
@@ -257,10 +263,7 @@ class StraightApproach(Progress):
         t = target.tolist()
         self._p0, self._R0 = p0, R0
         dp = self._dp = [t[0][3] - p0[0], t[1][3] - p0[1], t[2][3] - p0[2]]
-        a, b, c = R0
-        M = [[ti[0] * a[0] + ti[1] * a[1] + ti[2] * a[2], ti[0] * b[0] + ti[1] * b[1] + ti[2] * b[2],
-              ti[0] * c[0] + ti[1] * c[1] + ti[2] * c[2]] for ti in t[:3]]
-        x, y, z, th = so3_log_rows(M)
+        x, y, z, _ = so3_log_rows(_rows_times_transpose(t, R0))
         self._r = [x, y, z]
         L = math.sqrt(dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2] + self._l2 * (x * x + y * y + z * z))
         self.L = L
