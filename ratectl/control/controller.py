@@ -166,7 +166,6 @@ class ResolvedRateController:
         self._m.qd = qd_new
         self._m.qdd = np.zeros(self._n)
         self._q_last: np.ndarray | None = None
-        self._q_next_last: np.ndarray | None = None
         self._m.q_next = None
         self._gate.reset()
         self._servo.reset()
@@ -305,7 +304,7 @@ class ResolvedRateController:
     def _advance(self, q, q_next, qd, qdd, dt) -> float:
         """Record a command (the measured or base q, q_next, q̇, q̈) as the controller's
         state and advance its clock by ``dt``; returns the period's start time [s]."""
-        self._q_next_last = self._m.q_next = q_next.copy()
+        self._m.q_next = q_next.copy()
         self._m.qd = qd.copy()
         self._m.qdd = qdd
         self._q_last = q.copy()
@@ -393,7 +392,7 @@ class ResolvedRateController:
         if np.all(np.isfinite(q)):
             base = q
         else:
-            base = self._q_next_last if self._q_next_last is not None else self._q_last
+            base = self._m.q_next if self._m.q_next is not None else self._q_last
         if base is None:
             base = np.zeros(self._n)
         q_next, qd, qdd, reason = brake(base, qd_prev, dt, self.filter, self.limits, self._all_joints, reason)
