@@ -680,11 +680,12 @@ class _Loop:
     def _watchdog(self, state: RobotState, start: float, t_read: float) -> None:
         """No fresh state for longer than the timeout: record a halted cycle and end."""
         self.halt_delay = start - self.last_fresh_wall
-        # no command is sent on this cycle: its zero row is the driver's stop, not a controller command
+        # no command is sent on this cycle: its row holds the last command sent (what the robot
+        # was told until driver.stop() takes over), not a zero command the controller never made
         self.reason_now = (f"watchdog: no fresh state for {self.halt_delay * 1e3:.1f} ms; no command sent, "
                            "the robot is stopped by driver.stop()")
         t_halt = max(self.t_prev, self.t_fresh + self.halt_delay)
-        self.record(state, self.zero, self.zero, "halted", False, t_halt)
+        self.record(state, self.qd_cmd, self.zero, "halted", False, t_halt)
         self.timing.append((t_read - start, 0.0, 0.0, time.perf_counter() - start))
         self._end(
             f"watchdog: no fresh state for {self.halt_delay * 1e3:.1f} ms (timeout "

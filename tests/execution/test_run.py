@@ -85,6 +85,7 @@ def test_watchdog_halts_within_timeout_plus_one_period(arm):
     # the last row is the driver's stop, not a command of the controller: its reason says so
     assert "no command sent" in ex.reasons[-1] and "driver.stop()" in ex.reasons[-1]
     assert not any("no command sent" in r for r in ex.reasons[:-1])
+    assert np.array_equal(ex.qd[-1], ex.qd[-2])  # it holds the last command sent
     delay = ex.info["halt_delay"]
     # decided at the first cycle after the timeout: within timeout + that cycle's period, which is
     # one period unless the OS kept the process waiting
@@ -94,6 +95,23 @@ def test_watchdog_halts_within_timeout_plus_one_period(arm):
     # the last fresh stamp is from before the freeze; the loop's clock ran on to the halt
     assert not ex.fresh[-1] and ex.stamps[-1] - ex.stamps[0] < 0.31
     assert ex.t[-1] - (ex.stamps[-1] - ex.stamps[0]) == pytest.approx(delay, abs=2e-3)
+
+
+def test_a_watchdog_stop_in_full_motion_records_no_command_that_was_not_sent():
+    """A state that freezes while the arm moves fast toward a target: the watchdog ends the
+    run while the braking command is still far from zero. Its row holds the last command
+    sent (the driver's stop takes over from there), so the recorded commanded stream stays
+    within amax over the real periods; a zero row there read as a 3.5 × amax step."""
+    arm = rc.robots.ur5e()
+    q0 = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
+    T = arm.fk(q0)
+    T[:3, 3] += [0.1, 0.05, -0.05]
+    ex = rc.run(ScriptedDriver(arm, q0, stale_after=0.4), target=T, rate_hz=500.0, duration=3.0)
+    assert not ex.completed and "watchdog" in ex.message, ex.summary()
+    assert np.abs(ex.qd[-2]).max() > 0.05  # still moving when the watchdog decided
+    assert np.array_equal(ex.qd[-1], ex.qd[-2])
+    acc = np.abs(np.diff(ex.qd, axis=0)) / np.diff(ex.t)[:, None]
+    assert np.all(acc <= arm.amax * (1 + 1e-9)), float(np.max(acc / arm.amax))
 
 
 def test_dropped_samples_are_held_and_counted(arm):
