@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..singularity import analyze
+from ..solvers.base import Solver, SolveResult, sigma_at_least
 from .cycle import Cycle
 from .progress import ProgressLimits
 
@@ -43,12 +44,20 @@ class ProgressStage:
         self.bounds = ProgressLimits(chain, limits, jmax=jmax, accel_share=_SHARE, stop_sigma=stop_sigma,
                                      watch_sigma=max(4.0 * stop_sigma, 1e-6))
         self.singular_kind: str | None = None
+        self._solve_direction = (solver.solve_direction if isinstance(solver, Solver)
+                                 else lambda J, d, **kw: _generic_direction(solver, J, d, **kw))
 
     def direction(self, J: np.ndarray, d: np.ndarray, q: np.ndarray, dt: float) -> Any:
         """The solver's answer for the direction ``d`` (6,) without the joint limits (which
         bound the progress instead): q̇ per unit of progress (``.qd``), with σ_min available
         from the result. ``q`` and ``dt`` go to solvers that need them (extra rows)."""
         return self.solver.solve(J, d, q=q, dt=dt)
+
+    def direction_qd(self, J: np.ndarray, d: np.ndarray, q: np.ndarray, dt: float) -> tuple[np.ndarray, Any]:
+        """``(w, sigma)``: the solver's q̇ per unit of the direction ``d`` without the joint
+        limits (`Solver.solve_direction`, the validated entry) and what says σ_min(J) (for
+        `sigma_for_watch`)."""
+        return self._solve_direction(J, d, q=q, dt=dt)
 
     def exact_direction(self, q: np.ndarray, d: np.ndarray, J_at: tuple | None = None
                         ) -> tuple[float, float]:
@@ -64,14 +73,17 @@ class ProgressStage:
         total = float(c @ c)
         return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0)
 
-    def sigma_for_watch(self, res: Any) -> float | None:
-        """σ_min of a direction solve when it may be below the watch threshold, else None
-        (decided without computing σ_min when the result can)."""
-        at_least = getattr(res, "sigma_min_at_least", None)
-        if at_least is not None and at_least(self.bounds.watch_sigma):
-            return None
-        smin = float(res.sigma_min)
-        return smin if smin < self.bounds.watch_sigma else None
+    def sigma_for_watch(self, sigma: Any) -> float | None:
+        """σ_min of a direction solve (its result, or the ``sigma`` of `direction_qd`) when
+        it may be below the watch threshold, else None (decided without computing σ_min
+        where the solver can, `sigma_at_least`)."""
+        if not hasattr(sigma, "sigma_min") or isinstance(sigma, SolveResult):
+            above, smin = sigma_at_least(sigma, self.bounds.watch_sigma)
+        else:  # a result that is not a `SolveResult` (a solver of the user's own)
+            smin = float(sigma.sigma_min)
+            above = smin >= self.bounds.watch_sigma
+        return None if above else smin
+
 
     def flags(self, cyc: Cycle, q, caps, moving: bool, at_bound: bool) -> None:
         """Status flags and reasons of a progress bound (approach or jog)."""
@@ -95,3 +107,10 @@ class ProgressStage:
             cyc.active.append("velocity")
             cyc.reasons.append(f"moving at the speed limit of joint {self.bounds.name(caps.joint)} "
                                "along the commanded direction")
+
+
+def _generic_direction(solver: Any, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
+                       dt: float | None) -> tuple[np.ndarray, Any]:
+    """`Solver.solve_direction` for a solver object that is not a `Solver` (its ``solve``)."""
+    res = solver.solve(J, d, q=q, dt=dt)
+    return np.array(res.qd, dtype=float), res

@@ -128,16 +128,15 @@ class Servo:
         speed = 0.0
         if ap.L > 0.0:
             try:
-                res_w = self._progress.direction(J, ap.d, q, dt)
+                w, sig_w = self._progress.direction_qd(J, ap.d, q, dt)
             except SingularityError as err:
                 return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
                                   error=cyc.e, ep=cyc.ep, eo=cyc.eo)
             except (RatectlError, np.linalg.LinAlgError) as err:
                 return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
-            w = np.array(res_w.qd, dtype=float)
             if ap.end_accel == math.inf and not self._pursuit and ap.settled:
                 self._end_bounds(ap, q, target, dt)  # (a target that moves every period: not yet)
-            caps = self._progress.bounds.caps(q, w, dt=dt, sigma=self._progress.sigma_for_watch(res_w),
+            caps = self._progress.bounds.caps(q, w, dt=dt, sigma=self._progress.sigma_for_watch(sig_w),
                                        w_prime=ap.w_prime(w),
                                      exact=lambda q2: self._progress.exact_direction(q2, ap.d, (q, J)))
             w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother

@@ -91,7 +91,7 @@ class _LazySigma:
     decided without it (`certainly_at_least`), and every exact value becomes the new
     reference. Without G, J (an array the solver owns) gives it."""
 
-    __slots__ = ("G", "J", "ref", "shape", "entries")
+    __slots__ = ("G", "J", "ref", "shape", "entries", "_value")
 
     def __init__(self, G: np.ndarray | None, J: np.ndarray | None = None,
                  ref: _SigmaReference | None = None, *, shape: tuple[int, ...] | None = None,
@@ -101,8 +101,16 @@ class _LazySigma:
         self.ref = ref
         self.shape = shape
         self.entries = entries
+        self._value: float | None = None
 
     def value(self) -> float:
+        """σ_min (computed once)."""
+        v = self._value
+        if v is None:
+            v = self._value = self._compute()
+        return v
+
+    def _compute(self) -> float:
         G = self.G
         if G is None:
             J = self.J
@@ -391,11 +399,14 @@ class Solver:
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         # a subclass whose own ``solve`` adds something (rows of its own) keeps it on the
-        # validated entry too: a ``solve_validated`` inherited from a parent that skips
-        # ``solve`` (the QP's) would bypass it, so such a class gets the generic entry
+        # validated entries too: a ``solve_validated`` / ``solve_direction`` inherited from a
+        # parent that skips ``solve`` (the QP's) would bypass it, so such a class gets the
+        # generic entries
         super().__init_subclass__(**kwargs)
         if "solve" in cls.__dict__ and "solve_validated" not in cls.__dict__:
             cls.solve_validated = Solver.solve_validated  # type: ignore[method-assign]
+        if "solve" in cls.__dict__ and "solve_direction" not in cls.__dict__:
+            cls.solve_direction = Solver.solve_direction  # type: ignore[method-assign]
 
     def solve_validated(self, J: np.ndarray, xi: np.ndarray, *, limits: Limits | Chain | None,
                         q: np.ndarray | None, qd_prev: np.ndarray | None, dt: float | None,
@@ -409,6 +420,17 @@ class Solver:
         it with an entry that skips the checks the caller has made (same answers)."""
         return validated_solve_generic(self, J, xi, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
                                        qd_ff=qd_ff)
+
+    def solve_direction(self, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
+                        dt: float | None) -> tuple[np.ndarray, Any]:
+        """The answer for a direction ``d`` (m,) without limits, for a caller that has
+        validated its inputs (as `solve_validated`): ``(w, sigma)`` with w (n,) the q̇ per
+        unit of ``d`` (a fresh writable array) and ``sigma`` whatever says σ_min(J) — here the
+        `SolveResult` (its ``sigma_min`` / ``sigma_min_at_least``); read it through
+        `sigma_at_least`. A progress along ``d`` (the servo's straight line) scales w by
+        its speed. The default calls `solve`; the QP answers from its factorisation alone."""
+        res = self.solve(J, d, q=q, dt=dt)
+        return np.array(res.qd, dtype=float), res
 
     def __init__(self, *, velocity_policy: str | None = "scale", task_weights: ArrayLike | None = None,
                  joint_weights: ArrayLike | None = None) -> None:
@@ -530,6 +552,24 @@ def validated_solve_generic(solver: Any, J: np.ndarray, xi: np.ndarray, *, limit
         q = None if q is None else q + qd_ff * dt
         qd_prev = None if qd_prev is None else qd_prev - qd_ff
     return solver.solve(J, xi, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
+
+
+def sigma_at_least(sigma: Any, threshold: float) -> tuple[bool, float]:
+    """``(σ_min ≥ threshold, σ_min or NaN when it was not needed)`` for the ``sigma`` of
+    `Solver.solve_direction`: a `SolveResult`, a lazy σ (decided from its reference where
+    it can, `_LazySigma.certainly_at_least`) or a number."""
+    if type(sigma) is _LazySigma:
+        if sigma.certainly_at_least(threshold):
+            return True, math.nan
+        v = sigma.value()
+        return v >= threshold, v
+    if isinstance(sigma, SolveResult):
+        if sigma.sigma_min_at_least(threshold):
+            return True, math.nan
+        v = float(sigma.sigma_min)
+        return v >= threshold, v
+    v = float(sigma)
+    return v >= threshold, v
 
 
 def solver_declares(solver: Any, name: str) -> bool:

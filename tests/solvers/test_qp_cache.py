@@ -1,10 +1,12 @@
 """The QP's reuse of P and its Cholesky factor between two solves with the same J."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import ratectl as rc
+from ratectl.solvers.base import sigma_at_least
 
 
 @settings(max_examples=60, deadline=None)
@@ -30,3 +32,55 @@ def test_a_second_solve_with_the_same_J_equals_a_fresh_solve(seed, limited):
     got2 = warm.solve(J2, b, **kw)
     want2 = rc.solvers.QP().solve(J2, b, **kw)
     assert np.allclose(got2.qd, want2.qd, rtol=0, atol=1e-12 * (1 + np.abs(want2.qd).max()))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10_000), st.sampled_from(["plain", "weighted", "objective", "undamped"]))
+def test_solve_direction_is_the_unlimited_solve(seed, kind):
+    """`Solver.solve_direction` (the servo's direction per unit of progress) gives what
+    ``solve(J, d, q=q, dt=dt)`` gives without limits, bit for bit, for the QP's own path and
+    its fallbacks, and its σ says the same as the result's σ_min; a following limited solve
+    with the same J still equals a fresh one."""
+    rng = np.random.default_rng(seed)
+    arm = rc.robots.ur5e()
+    q = rng.uniform(-2, 2, 6)
+    if seed % 7 == 0:
+        q[4] = 0.0  # an exact wrist singularity
+    J = arm.jacobian(q)
+    d = rng.standard_normal(6)
+    kw = {"plain": {}, "weighted": {"joint_weights": rng.uniform(0.5, 2.0, 6)},
+          "objective": {"objective": "centring", "chain": arm}, "undamped": {"damping": 0.0}}[kind]
+    try:
+        want = rc.solvers.QP(**kw).solve(J, d, q=q, dt=1e-3)
+    except rc.errors.RatectlError as err:
+        with pytest.raises(type(err)):
+            rc.solvers.QP(**kw).solve_direction(J, d, q=q, dt=1e-3)
+        return
+    solver = rc.solvers.QP(**kw)
+    w, sig = solver.solve_direction(J, d, q=q, dt=1e-3)
+    assert w.flags.writeable and w.tolist() == want.qd.tolist()
+    for threshold in (1e-3, 0.05, 0.2, float(want.sigma_min) * (1 + 1e-9)):
+        above, value = sigma_at_least(sig, threshold)
+        assert above == (want.sigma_min >= threshold)
+        assert np.isnan(value) or abs(value - want.sigma_min) <= 1e-12
+    xi = rng.standard_normal(6)
+    lim = dict(limits=arm, q=q, qd_prev=np.zeros(6), dt=1e-3)
+    got = solver.solve(J, xi, **lim)
+    fresh = rc.solvers.QP(**kw).solve(J, xi, **lim)
+    assert np.allclose(got.qd, fresh.qd, rtol=0, atol=1e-12 * (1 + np.abs(fresh.qd).max()))
+
+
+def test_a_subclass_with_its_own_solve_keeps_it_for_directions():
+    """A QP subclass that overrides ``solve`` (rows of its own) is asked through that
+    ``solve`` for a direction too: the QP's factorisation-only entry would bypass it."""
+    calls = []
+
+    class Counting(rc.solvers.QP):
+        def solve(self, J, xi, **kw):
+            calls.append(kw)
+            return super().solve(J, xi, **kw)
+
+    arm = rc.robots.ur5e()
+    q = np.array([0.3, -1.2, 1.5, -1.9, -1.4, 0.6])
+    w, res = Counting().solve_direction(arm.jacobian(q), np.eye(6)[0], q=q, dt=1e-3)
+    assert len(calls) == 1 and w.tolist() == res.qd.tolist()

@@ -194,6 +194,27 @@ class QP(Solver):
         outside the guarantee is undefined (use `solve`)."""
         return self._solve_checked(J, xi, _checked_entries(J, xi), limits, q, qd_prev, qd_ff, dt, None)
 
+    def solve_direction(self, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
+                        dt: float | None) -> tuple[np.ndarray, Any]:
+        """`Solver.solve_direction`: with no bounds the QP's answer is its unconstrained
+        minimiser w = P⁻¹b (b = JᵀW d, plus the objective's term), the same Cholesky solve
+        as `solve` without limits, returned with σ_min(W J) lazily (a second solve with the
+        same J, the cycle's command, reuses P's factor). Inputs as for `solve_validated`."""
+        if self.shortcut and self._pd:
+            sigma, P, b = self._objective_terms(J, d, q, _checked_entries(J, d))
+            terms = self._terms
+            if terms is not None and terms[2] is P and terms[4] is not None:
+                w, info = _dpotrs(terms[4], b)
+            else:
+                factor, w, info = _dposv(P, b)
+                if info == 0 and terms is not None and terms[2] is P:
+                    self._terms = (*terms[:4], factor)
+            t = sum(w.tolist())
+            if info == 0 and t - t == 0.0:
+                return w, sigma
+        res = self.solve(J, d, q=q, dt=dt)  # (the general path: its checks and errors)
+        return np.array(res.qd, dtype=float), res
+
     def _solve_checked(self, J: np.ndarray, xi: np.ndarray, entries: list[float],
                        limits: Limits | Chain | None, qv: np.ndarray | None, qd_prev_v: np.ndarray | None,
                        qd_ff_v: np.ndarray | None, dt_v: float | None,
