@@ -18,8 +18,10 @@ The controller composes stage objects, each owning its state, in the order of a 
    (`Solver.solve_validated`);
 3. the limits (`ratectl.control.limiter`): velocity (uniform scaling), acceleration (the
    change of q̇ scaled into amax·dt), joint position (braking in time whatever the later
-   periods are; after a fault the position side wins, ``limit-recovery``). A solver that
-   enforces the limits itself (``enforces_limits``) is only reported;
+   periods are; after a fault the position side wins, ``limit-recovery``). What a solver
+   that enforces the limits itself (``enforces_limits``) answered under its bounds is only
+   reported; the servo's and the jog's commands are always limited here (uniformly: a box
+   would turn the tool's motion);
 4. optionally a Ruckig velocity filter (``_smooth``) inside its position guard
    (`ratectl.control.smooth_stage`), and the integration ``q_next = q + q̇ dt``;
 5. the servo's arrival status and the `Command` (``_command``); a halt's braking motion is
@@ -134,7 +136,8 @@ class ResolvedRateController:
         self._m = m = Motion(n)
         self._gate = Gate(n, self.timeout)
         self._solver_stage = SolveStage(chain, gain=self.gain, entry=self._solve_entry, limits=self.limits,
-                                        motion=m, filter=self.filter, halt=self._halt)
+                                        motion=m, filter=self.filter, halt=self._halt,
+                                        enforcing=self._enforcing)
         self._error, self._solve = self._solver_stage.error, self._solver_stage.solve
         self._progress = ProgressStage(chain, self.solver, self.limits, self.filter,
                                        stop_sigma=self.stop_sigma)
@@ -142,10 +145,10 @@ class ResolvedRateController:
                             position_tolerance=self.position_tolerance,
                             orientation_tolerance=self.orientation_tolerance, blocked=blocked,
                             solve=self._solve, halt=self._halt)
-        self._jog = JogStage(chain, self._progress, m, enforcing=self._enforcing, solve=self._solve,
-                             halt=self._halt)
+        self._jog = JogStage(chain, self._progress, m, adds_rows=solver_declares(self.solver, "adds_rows"),
+                             solve=self._solve, halt=self._halt)
         self._limiter = Limiter(chain, self.limits, m, self.filter, singular_sigma=self.singular_sigma,
-                                enforcing=self._enforcing)
+                                constant_damping=self._enforcing)
         self._guard = None if self.filter is None else SmoothGuard(self._limiter, self.filter, m)
         # the straight approach, not with a solver that bends the path around rows of its own
         self._straight_servo = not solver_declares(self.solver, "adds_rows")

@@ -74,7 +74,7 @@ class Cycle:
 
     __slots__ = ("J", "e", "ep", "eo", "xi", "target", "res", "qd", "qdd", "q_next", "flags", "reasons",
                  "active", "scale", "smin", "braking", "approach", "qdd_ff", "approach_qd", "kind",
-                 "blocked")
+                 "blocked", "enforced")
 
     J: np.ndarray
     e: np.ndarray
@@ -103,6 +103,10 @@ class Cycle:
         self.blocked = ""
         self.scale = 1.0
         self.smin = None  # σ_min of the solve, read on demand (`sigma`)
+        # q̇ is a limit-enforcing solver's answer under its own bounds (then the limiter only
+        # reports them); any other q̇ (a direction scaled by a progress, a joint line) is
+        # limited by the limiter
+        self.enforced = False
 
     def sigma(self) -> float:
         """σ_min of the cycle's solve, computed on the first call only."""

@@ -72,17 +72,19 @@ class JogStage:
         chain: the arm.
         progress: the bounds and flags shared with the approach (`ProgressStage`).
         motion: the controller's last command (`Motion`).
-        enforcing: the solver enforces the limits itself: the scaled twist is solved again
-            under its bounds.
+        adds_rows: the solver adds constraint rows of its own (e.g. collision avoidance): the
+            scaled twist is solved again under them and the solver's bounds (otherwise the
+            command is the direction's answer scaled, c·w, and the limiter bounds it
+            uniformly: a box would clip joints one by one and turn the tool's motion).
         solve, halt: the controller's solve stage and safe halt.
     """
 
-    def __init__(self, chain: Chain, progress: ProgressStage, motion: Motion, *, enforcing: bool,
+    def __init__(self, chain: Chain, progress: ProgressStage, motion: Motion, *, adds_rows: bool,
                  solve: Callable[..., Command | None], halt: Callable[..., Command]) -> None:
         self.chain = chain
         self._progress = progress
         self._m = motion
-        self._enforcing = enforcing
+        self._adds_rows = adds_rows
         self._solve = solve
         self._halt = halt
         self._jogger = Jog()
@@ -127,7 +129,7 @@ class JogStage:
         c = jog.advance(caps, dt)
         jog.w_prev = w
         cyc.xi = twist * c
-        if self._enforcing:
+        if self._adds_rows:
             halt = self._solve(cyc, q, dt, None)
             if halt is not None:
                 return halt

@@ -7,9 +7,11 @@ this order: velocity (uniform scaling, which keeps the direction of motion), acc
 it), joint position (each joint may only move as fast as it can still stop before its
 limit at amax whatever the later periods are, ``speed_toward_limit``; after a fault — a
 measured q inside the stopping distance or beyond a limit — the position side wins over
-amax, status ``limit-recovery``). A solver that enforces the limits itself
-(``enforces_limits``, the QP) is not limited again: its bounds and extra rows are kept as
-solved and only reported.
+amax, status ``limit-recovery``). A q̇ that a solver which enforces the limits itself
+(``enforces_limits``, the QP) answered under its bounds is not limited again: its bounds and
+extra rows are kept as solved and only reported. Every other q̇ is limited here, whatever
+the solver: the servo's and the jog's commands (a direction scaled by a progress, which a
+box would turn by clipping joints one by one) and the joint line of a blocked servo.
 """
 
 from __future__ import annotations
@@ -45,17 +47,20 @@ class Limiter:
         filter: the controller's smoothing filter or None (with one, the acceleration is
             the filter's and "near a limit" counts its jerk-limited stop).
         singular_sigma: below this σ_min a velocity-scaled solve is reported "singular".
-        enforcing: the solver enforces the limits itself (only report them).
+        constant_damping: the solver's λ is a constant regulariser (the QP's): ``damped`` is
+            reported only below ``singular_sigma``.
+    A cycle whose q̇ a limit-enforcing solver answered under its bounds (``cyc.enforced``)
+    is only reported.
     """
 
     def __init__(self, chain: Chain, limits: Limits | None, motion: Motion, filter: VelocityFilter | None,
-                 *, singular_sigma: float, enforcing: bool) -> None:
+                 *, singular_sigma: float, constant_damping: bool = False) -> None:
         self.chain = chain
         self.n = chain.dof
         self._m = motion
         self.filter = filter
         self.singular_sigma = singular_sigma
-        self._enforcing = enforcing
+        self._constant_damping = constant_damping
         if limits is None:
             self.has_v = self.has_a = self.has_p = False
             return
@@ -98,7 +103,7 @@ class Limiter:
         module docstring), or only the report of them for a solver that enforces them.
         Returns whether a joint is near a position limit (then, with smoothing, the
         jerk-limited guard of `ratectl.control.smooth_stage` runs too)."""
-        enforcing = self._enforcing
+        enforcing = cyc.enforced
         if enforcing:
             # the solver (the QP, possibly with extra rows such as collision limits) already
             # bounds q̇ by the velocity, position and acceleration limits; limiting again here
@@ -123,7 +128,7 @@ class Limiter:
         if near and not enforcing:
             self._limit_position(cyc, q, dt)
         res = cyc.res
-        if res.damping > 0.0 and not (enforcing and cyc.sigma_at_least(self.singular_sigma)):
+        if res.damping > 0.0 and not (self._constant_damping and cyc.sigma_at_least(self.singular_sigma)):
             # a QP's λ is a constant regulariser: it is reported only near a singularity
             cyc.flags.append("damped")
             cyc.reasons.append(f"damped least squares, λ = {res.damping:.3g} "

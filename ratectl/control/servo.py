@@ -149,7 +149,9 @@ class Servo:
                 speed = ap.sd
             ap.w_prev = w
         cyc.xi = ap.d * speed + self.gain * e_ref
-        halt = self._solve(cyc, q, dt, None)
+        # without the solver's box (a box clips joints one by one and turns the tool off its
+        # line): the progress is already within the limits, and the limiter scales the rest
+        halt = self._solve(cyc, q, dt, None, bounded=False)
         if halt is not None:
             return halt
         if w is not None and self.filter is not None:

@@ -29,8 +29,9 @@ class SolveStage:
     acceleration itself; ``halt(q, dt, reason, ...)`` makes the halt's command."""
 
     def __init__(self, chain: Chain, *, gain: np.ndarray, entry: Any, limits: Limits | None,
-                 motion: Motion, filter: VelocityFilter | None, halt: Any) -> None:
+                 motion: Motion, filter: VelocityFilter | None, halt: Any, enforcing: bool) -> None:
         self.chain = chain
+        self._enforcing = enforcing
         self.gain = gain
         self._entry = entry
         self.limits = limits
@@ -60,20 +61,26 @@ class SolveStage:
         cyc.xi = xi
         return cyc
 
-    def solve(self, cyc: Cycle, q, dt, qd_ff) -> Command | None:
+    def solve(self, cyc: Cycle, q, dt, qd_ff, *, bounded: bool = True) -> Command | None:
         """q̇ = q̇_ff + solver(J, ξ); a solver failure or a non-finite answer halts (returns
-        the halt's Command), otherwise fills ``cyc.qd``, ``cyc.res`` and the status lists."""
+        the halt's Command), otherwise fills ``cyc.qd``, ``cyc.res`` and the status lists.
+        ``bounded=False``: a limit-enforcing solver answers without its bounds (the servo's
+        command, whose direction a box must not turn: the limiter then scales it)."""
         # with smoothing the filter bounds the acceleration (and the jerk) of what is
         # commanded; a solver's acceleration box around the filter's lagging output would
         # throttle it (the QP's answer at q̇_f ± amax·dt keeps Ruckig's target within one
         # period of its state: the arm then accelerates at a fraction of amax)
         qd_prev = self._m.qd if self.filter is None else None
+        limits = self.limits
+        enforced = self._enforcing
+        if enforced and not bounded:
+            limits = qd_prev = None
+            enforced = False
         try:
             # the solver's entry for validated inputs (`Solver.solve_validated`): q, dt and
             # q̇_ff were checked by this cycle, the previous q̇ is this controller's finite
             # state, J and ξ its own float arrays; it returns the correction on top of q̇_ff
-            res = self._entry(cyc.J, cyc.xi, limits=self.limits, q=q, qd_prev=qd_prev, dt=dt,
-                                    qd_ff=qd_ff)
+            res = self._entry(cyc.J, cyc.xi, limits=limits, q=q, qd_prev=qd_prev, dt=dt, qd_ff=qd_ff)
         except SingularityError as err:
             return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
                               error=cyc.e, ep=cyc.ep, eo=cyc.eo)
@@ -84,6 +91,7 @@ class SolveStage:
             return self._halt(q, dt, "solver returned a non-finite q̇", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
         cyc.res = res
         cyc.qd = qd
+        cyc.enforced = enforced
         cyc.active = list(res.limits_active)
         cyc.scale = float(res.velocity_scale)
         cyc.smin = None  # σ_min: read from res only when needed (a QP computes it lazily)
