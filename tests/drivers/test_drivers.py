@@ -63,6 +63,30 @@ def test_scripted_arm_integrates_the_commanded_velocity():
         ScriptedDriver(arm, Q0[:3])
 
 
+def test_scripted_lag_is_a_first_order_velocity_servo():
+    """lag=τ: v follows the command as v̇ = (q̇ − v)/τ; after a zero command the arm still covers
+    the commanded displacement (a unit-gain servo), later."""
+    arm = rc.robots.panda()
+    tau = 0.05
+    drv = ScriptedDriver(arm, Q0, lag=tau)
+    clock = [0.0]
+    drv._now = lambda: clock[0]  # a controlled clock
+    qd = np.array([0.2, -0.1, 0.0, 0.05, 0.0, 0.0, 0.3])
+    drv.read()
+    drv.command(qd)
+    clock[0] = 0.1
+    s = drv.read()
+    decay = math.exp(-0.1 / tau)
+    assert np.allclose(s.qd, qd * (1.0 - decay), rtol=1e-12)
+    assert np.allclose(s.q, Q0 + qd * (0.1 - tau * (1.0 - decay)), rtol=1e-12)
+    drv.command(np.zeros(7))
+    clock[0] = 0.1 + 40 * tau  # long after: at rest, the whole commanded displacement covered
+    s = drv.read()
+    assert np.allclose(s.q, Q0 + qd * 0.1, atol=1e-12) and np.max(np.abs(s.qd)) < 1e-12
+    with pytest.raises(InputError, match="lag"):
+        ScriptedDriver(arm, Q0, lag=-0.01)
+
+
 def test_scripted_faults():
     arm = rc.robots.panda()
     d = ScriptedDriver(arm, Q0, drop=1.0)
