@@ -55,6 +55,9 @@ def _scaled_like(wanted: np.ndarray, clipped: np.ndarray) -> np.ndarray:
     return wanted * float(np.clip(ratio.min(), 0.0, 1.0))
 
 
+_AT_REST = 1e-9  # [rad or m] a command that moves a joint by less over a period holds it at rest
+
+
 class Motion:
     """The motion the controller last commanded: ``qd`` q̇ [rad/s or m/s] and ``qdd`` q̈
     [rad/s² or m/s²], (n,) each, ``q_next`` the position it commanded (None before the
@@ -80,14 +83,15 @@ class Motion:
         move: the travel an arm that lags its velocity command still owes. An arm whose servo
         tracks velocity without a steady-state error covers, once at rest, every displacement
         it was commanded, so it comes to rest at ``q_lead`` — with the command at zero, however
-        long its velocity lags. A joint the last command held at rest (q̇ = 0) that was measured
-        not moving toward its lead since ``q_prev`` owes nothing: its lead is its measured q
-        again (a gap a sag or friction left, which the arm will never travel, is forgotten)."""
+        long its velocity lags. A joint the last command held at rest (it moved the joint by
+        at most ``_AT_REST``, rounding) that was measured not moving toward its lead since
+        ``q_prev`` owes nothing: its lead is its measured q again (a gap a sag or friction
+        left, which the arm will never travel, is forgotten)."""
         lead = self.q_lead
-        if lead is None or q_prev is None:
+        if lead is None or q_prev is None or self.q_next is None:
             lead = q
         else:
-            owes = (self.qd != 0.0) | ((q - q_prev) * (lead - q) > 0.0)
+            owes = (np.abs(self.q_next - q_prev) > _AT_REST) | ((q - q_prev) * (lead - q) > 0.0)
             lead = np.where(owes, lead, q)
         self.q_lead = lead + (q_next - q)
 

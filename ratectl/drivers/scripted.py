@@ -57,6 +57,10 @@ class ScriptedDriver:
             a real arm); it is measured standing still.
         lag: τ [s], the time constant of a first-order velocity servo (module docstring): the
             measured q̇ is the joints' lagging velocity v. 0 (default): v is the command at once.
+        period: None (default): the arm moves in wall-clock time. A number [s]: the arm's
+            clock advances by this much at each ``read()`` and stands still otherwise (a
+            simulated robot stepped by the loop, as `MujocoDriver` is): runs are then
+            deterministic however loaded the machine is. Times above are on this clock.
         fail_after: from this time on ``read()`` and ``command()`` raise a bare
             ``ConnectionResetError`` — deliberately *not* a ratectl error, as a careless driver
             would, so that tests can check the loop contains it.
@@ -81,6 +85,7 @@ class ScriptedDriver:
         freeze_joint: tuple[int, float] | None = None,
         dead_band: ArrayLike = 0.0,
         lag: float = 0.0,
+        period: float | None = None,
         seed: int = 0,
     ) -> None:
         if not isinstance(chain, Chain):
@@ -139,6 +144,8 @@ class ScriptedDriver:
         self.dead_band = band
         self.lag = positive_number("lag", lag, allow_zero=True, unit="[s]")
         self._v = np.zeros(chain.dof)  # the joints' velocity (lagging the command when lag > 0)
+        self.period = None if period is None else positive_number("period", period, unit="[s]")
+        self._clock: float | None = None  # the stepped clock's time [s] (period given), from the first read
         self._rng = np.random.default_rng(int(seed))
         self._last: RobotState | None = None
         self.commands: list[tuple[float, np.ndarray]] = []
@@ -149,7 +156,15 @@ class ScriptedDriver:
         """The arm."""
         return self._chain
 
-    def _now(self) -> float:
+    def _now(self, *, tick: bool = False) -> float:
+        """The arm's time [s] since the first read or command (``tick``: a read, which steps a
+        stepped clock by ``period`` after the first)."""
+        if self.period is not None:
+            if self._clock is None:
+                self._clock = 0.0
+            elif tick:
+                self._clock += self.period
+            return self._clock
         now = time.monotonic()
         if self._t0 is None:
             self._t0 = now
@@ -193,7 +208,7 @@ class ScriptedDriver:
         """The arm's state now (see the class docstring for the faults)."""
         if self.read_delay > 0.0:
             time.sleep(self.read_delay)
-        t = self._now()
+        t = self._now(tick=True)
         if t >= self.fail_after:
             raise ConnectionResetError("scripted connection reset by peer")
         self._advance(t)
