@@ -169,7 +169,7 @@ class ResolvedRateController:
         self._m.qd = qd_new
         self._m.qdd = np.zeros(self._n)
         self._q_last: np.ndarray | None = None
-        self._m.q_next = None
+        self._m.q_next = self._m.q_lead = None
         self._gate.reset()
         self._servo.reset()
         self._jog.reset()
@@ -307,6 +307,7 @@ class ResolvedRateController:
     def _advance(self, q, q_next, qd, qdd, dt) -> float:
         """Record a command (the measured or base q, q_next, q̇, q̈) as the controller's
         state and advance its clock by ``dt``; returns the period's start time [s]."""
+        self._m.commanded(q, self._q_last, q_next)  # the lead, before q̇ and q become this command's
         self._m.q_next = q_next.copy()
         self._m.qd = qd.copy()
         self._m.qdd = qdd

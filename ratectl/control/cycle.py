@@ -55,18 +55,45 @@ def _scaled_like(wanted: np.ndarray, clipped: np.ndarray) -> np.ndarray:
     return wanted * float(np.clip(ratio.min(), 0.0, 1.0))
 
 
+_AT_REST = 1e-9  # [rad or m] a command that moves a joint by less over a period holds it at rest
+
+
 class Motion:
     """The motion the controller last commanded: ``qd`` q̇ [rad/s or m/s] and ``qdd`` q̈
-    [rad/s² or m/s²], (n,) each, and ``q_next`` the position it commanded (None before the
-    first command). One object shared by the controller (which writes it when it commands)
-    and its stages (which read it as the previous cycle's)."""
+    [rad/s² or m/s²], (n,) each, ``q_next`` the position it commanded (None before the
+    first command), and ``q_lead`` the position its commands have sent the arm to (see
+    `commanded`; None before the first command). One object shared by the controller (which
+    writes it when it commands) and its stages (which read it as the previous cycle's)."""
 
-    __slots__ = ("qd", "qdd", "q_next")
+    __slots__ = ("qd", "qdd", "q_next", "q_lead")
 
     def __init__(self, n: int) -> None:
         self.qd = np.zeros(n)
         self.qdd = np.zeros(n)
         self.q_next: np.ndarray | None = None
+        self.q_lead: np.ndarray | None = None
+
+    def commanded(self, q: np.ndarray, q_prev: np.ndarray | None, q_next: np.ndarray) -> None:
+        """A command from ``q`` (the measured or base position, (n,)) to ``q_next``: the
+        lead moves by the commanded displacement,
+
+            q_lead ← q_lead + (q_next − q)        (q_lead = q_next after the first command),
+
+        so ``q_lead − q`` is what the commands moved the arm beyond what it was measured to
+        move: the travel an arm that lags its velocity command still owes. An arm whose servo
+        tracks velocity without a steady-state error covers, once at rest, every displacement
+        it was commanded, so it comes to rest at ``q_lead`` — with the command at zero, however
+        long its velocity lags. A joint the last command held at rest (it moved the joint by
+        at most ``_AT_REST``, rounding) that was measured not moving toward its lead since
+        ``q_prev`` owes nothing: its lead is its measured q again (a gap a sag or friction
+        left, which the arm will never travel, is forgotten)."""
+        lead = self.q_lead
+        if lead is None or q_prev is None or self.q_next is None:
+            lead = q
+        else:
+            owes = (np.abs(self.q_next - q_prev) > _AT_REST) | ((q - q_prev) * (lead - q) > 0.0)
+            lead = np.where(owes, lead, q)
+        self.q_lead = lead + (q_next - q)
 
 
 class Cycle:

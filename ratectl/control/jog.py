@@ -123,7 +123,7 @@ class JogStage:
         w_prime = (w - wp) / (jog.c * dt) if (wp is not None and jog.c > 0.0) else None
         pr = self._progress
         caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(res_w), w_prime=w_prime,
-                              q_lead=self._m.q_next,
+                              q_lead=self._m.q_lead,
                               exact=lambda q2: pr.exact_direction(q2, twist, (q, J)))
         c_prev = jog.c
         c = jog.advance(caps, dt)

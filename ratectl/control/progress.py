@@ -171,9 +171,11 @@ class ProgressLimits:
             dt: the coming period [s].
             sigma: σ_min(J(q)) if known (else computed when needed).
             w_prime: dw/ds (n,) if known (the curvature term), else None.
-            q_lead: the position the last command sent the arm to (n,), or None: an arm
-                that lags its command will still get there, so a joint's room to its limit
-                is measured from whichever of q and q_lead is nearer the limit.
+            q_lead: the position the commands have sent the arm to (n,) (the controller's
+                sum of commanded displacements, `Motion.commanded`), or None: an arm that lags
+                its velocity command still gets there once the command stops, so a joint's
+                room to its limit is measured from whichever of q and q_lead is nearer the
+                limit.
             exact: ``f(q) -> (σ_min, share)``: σ_min(J) at any q and the share of the
                 direction's exact joint speed |J⁺d|² in the weakest direction, for the
                 singularity look-ahead (None: no singularity bound).

@@ -4,11 +4,18 @@ The arm integrates the commanded joint velocity exactly over wall-clock time,
 
     q(t) = q_k + q̇_k · (t − t_k)          (t_k: time of the last command q̇_k),
 
-(a joint commanded slower than its ``dead_band`` stands still: static friction)
-and serves it through the `Driver` protocol, with faults that can
-be switched on at given times: slow reads, dropped samples, a frozen (stale) server, NaN
-in the measurement, and a connection that dies. It is also the shortest complete driver —
-a template for writing one for another robot.
+(a joint commanded slower than its ``dead_band`` stands still: static friction), or with a
+velocity ``lag`` τ > 0 the joints' velocity v follows the command as a first-order servo,
+v̇ = (q̇_k − v)/τ, integrated exactly:
+
+    v(t) = q̇_k + (v_k − q̇_k)·e^(−(t − t_k)/τ),
+    q(t) = q_k + q̇_k·(t − t_k) + (v_k − q̇_k)·τ·(1 − e^(−(t − t_k)/τ))
+
+(a unit-gain servo: at rest again, the arm has covered every commanded displacement, but
+later — it keeps moving after a zero command). It serves the arm through the `Driver`
+protocol, with faults that can be switched on at given times: slow reads, dropped samples,
+a frozen (stale) server, NaN in the measurement, and a connection that dies. It is also
+the shortest complete driver — a template for writing one for another robot.
 """
 
 from __future__ import annotations
@@ -48,6 +55,12 @@ class ScriptedDriver:
         dead_band: [rad/s or m/s], a number or one per joint: a joint commanded slower than
             this does not move (static friction a small velocity command cannot break, as on
             a real arm); it is measured standing still.
+        lag: τ [s], the time constant of a first-order velocity servo (module docstring): the
+            measured q̇ is the joints' lagging velocity v. 0 (default): v is the command at once.
+        period: None (default): the arm moves in wall-clock time. A number [s]: the arm's
+            clock advances by this much at each ``read()`` and stands still otherwise (a
+            simulated robot stepped by the loop, as `MujocoDriver` is): runs are then
+            deterministic however loaded the machine is. Times above are on this clock.
         fail_after: from this time on ``read()`` and ``command()`` raise a bare
             ``ConnectionResetError`` — deliberately *not* a ratectl error, as a careless driver
             would, so that tests can check the loop contains it.
@@ -71,6 +84,8 @@ class ScriptedDriver:
         fail_after: float | None = None,
         freeze_joint: tuple[int, float] | None = None,
         dead_band: ArrayLike = 0.0,
+        lag: float = 0.0,
+        period: float | None = None,
         seed: int = 0,
     ) -> None:
         if not isinstance(chain, Chain):
@@ -127,6 +142,10 @@ class ScriptedDriver:
             raise InputError(f"dead_band must be a non-negative speed [rad/s or m/s], one or one per joint "
                              f"({chain.dof}), got {dead_band!r}"[:200], argument="dead_band", value=dead_band)
         self.dead_band = band
+        self.lag = positive_number("lag", lag, allow_zero=True, unit="[s]")
+        self._v = np.zeros(chain.dof)  # the joints' velocity (lagging the command when lag > 0)
+        self.period = None if period is None else positive_number("period", period, unit="[s]")
+        self._clock: float | None = None  # the stepped clock's time [s] (period given), from the first read
         self._rng = np.random.default_rng(int(seed))
         self._last: RobotState | None = None
         self.commands: list[tuple[float, np.ndarray]] = []
@@ -137,7 +156,15 @@ class ScriptedDriver:
         """The arm."""
         return self._chain
 
-    def _now(self) -> float:
+    def _now(self, *, tick: bool = False) -> float:
+        """The arm's time [s] since the first read or command (``tick``: a read, which steps a
+        stepped clock by ``period`` after the first)."""
+        if self.period is not None:
+            if self._clock is None:
+                self._clock = 0.0
+            elif tick:
+                self._clock += self.period
+            return self._clock
         now = time.monotonic()
         if self._t0 is None:
             self._t0 = now
@@ -147,19 +174,31 @@ class ScriptedDriver:
         """The velocity the joints move at: the command, zero within the dead band."""
         return np.where(np.abs(self._qd) < self.dead_band, 0.0, self._qd)
 
+    def _travel(self, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """(displacement, velocity at the end) over ``h`` [s] from now under the command
+        (module docstring: at once, or through the first-order lag τ)."""
+        vc = self._moving()
+        if self.lag == 0.0:
+            return vc * h, vc
+        decay = math.exp(-h / self.lag)
+        dv = self._v - vc
+        return vc * h + dv * (self.lag * (1.0 - decay)), vc + dv * decay
+
     def _advance(self, t: float) -> None:
         """Integrate the commanded velocity up to time t (a frozen joint stands still)."""
         if self._t_cmd is not None and t > self._t_cmd:
-            v = self._moving()
-            moved = v * (t - self._t_cmd)
+            moved, v = self._travel(t - self._t_cmd)
             if self.freeze_joint is not None:
                 j, t_f = self.freeze_joint
-                moved[j] = v[j] * max(0.0, min(t, t_f) - self._t_cmd)
+                moved[j] = self._travel(max(0.0, min(t, t_f) - self._t_cmd))[0][j]
+                if t >= t_f:
+                    v[j] = 0.0
             self._q = self._q + moved
+            self._v = v
         self._t_cmd = t
 
     def _measured_qd(self, t: float) -> np.ndarray:
-        qd = self._moving()
+        qd = self._moving() if self.lag == 0.0 else self._v.copy()
         if self.freeze_joint is None or t < self.freeze_joint[1]:
             return qd
         qd[self.freeze_joint[0]] = 0.0
@@ -169,7 +208,7 @@ class ScriptedDriver:
         """The arm's state now (see the class docstring for the faults)."""
         if self.read_delay > 0.0:
             time.sleep(self.read_delay)
-        t = self._now()
+        t = self._now(tick=True)
         if t >= self.fail_after:
             raise ConnectionResetError("scripted connection reset by peer")
         self._advance(t)
@@ -216,11 +255,12 @@ class ScriptedDriver:
         self.commands.append((t, self._qd))
 
     def stop(self) -> None:
-        """Stop at once (a kinematic arm has no dynamics to respect)."""
+        """Stop at once (a kinematic arm has no dynamics to respect; a lagging one too)."""
         self.stops += 1
         if self._t0 is not None:
             self._advance(self._now())
         self._qd = np.zeros(self._chain.dof)
+        self._v = np.zeros(self._chain.dof)
 
     @property
     def q(self) -> np.ndarray:

@@ -63,6 +63,42 @@ def test_scripted_arm_integrates_the_commanded_velocity():
         ScriptedDriver(arm, Q0[:3])
 
 
+def test_scripted_lag_is_a_first_order_velocity_servo():
+    """lag=τ: v follows the command as v̇ = (q̇ − v)/τ; after a zero command the arm still covers
+    the commanded displacement (a unit-gain servo), later."""
+    arm = rc.robots.panda()
+    tau = 0.05
+    drv = ScriptedDriver(arm, Q0, lag=tau, period=0.1)  # each read 0.1 s later
+    qd = np.array([0.2, -0.1, 0.0, 0.05, 0.0, 0.0, 0.3])
+    drv.read()
+    drv.command(qd)
+    s = drv.read()
+    decay = math.exp(-0.1 / tau)
+    assert np.allclose(s.qd, qd * (1.0 - decay), rtol=1e-12)
+    assert np.allclose(s.q, Q0 + qd * (0.1 - tau * (1.0 - decay)), rtol=1e-12)
+    drv.command(np.zeros(7))
+    for _ in range(40):  # 4 s = 80 τ later: at rest, the whole commanded displacement covered
+        s = drv.read()
+    assert np.allclose(s.q, Q0 + qd * 0.1, atol=1e-12) and np.max(np.abs(s.qd)) < 1e-12
+    with pytest.raises(InputError, match="lag"):
+        ScriptedDriver(arm, Q0, lag=-0.01)
+
+
+def test_scripted_stepped_clock_moves_only_when_read():
+    """period=h: each read() after the first advances the arm's clock by h, whatever the wall clock."""
+    arm = rc.robots.panda()
+    drv = ScriptedDriver(arm, Q0, period=0.002)
+    assert drv.read().stamp == 0.0
+    qd = np.array([0.2, -0.1, 0.0, 0.05, 0.0, 0.0, 0.3])
+    drv.command(qd)
+    time.sleep(0.01)  # wall-clock time does not move the arm
+    assert np.array_equal(drv.q, Q0)
+    s = drv.read()
+    assert s.stamp == 0.002 and np.allclose(s.q, Q0 + qd * 0.002, rtol=0, atol=1e-15)
+    with pytest.raises(InputError, match="period"):
+        ScriptedDriver(arm, Q0, period=0.0)
+
+
 def test_scripted_faults():
     arm = rc.robots.panda()
     d = ScriptedDriver(arm, Q0, drop=1.0)

@@ -76,31 +76,28 @@ def teleop(request):
 
 
 def test_teleop_reaches_the_limit_and_ends_with_the_stream(teleop):
-    _, arm, ex = teleop
+    smoothing, arm, ex = teleop
     assert ex.completed and "stream ended" in ex.message, ex.summary()
-    # it got there: a jog stops 1 mrad inside a limit, braking at half of amax on an arm that lags
-    assert ex.q_measured[:, 0].max() > LIMIT - 5e-3
+    # it got there: a jog stops 1 mrad inside a limit (smoothed, one period at vmax sooner: its
+    # jerk-limited stop may start a period late), and the lagging arm comes to rest there
+    slack = arm.vmax[0] * PERIOD if smoothing else 0.0
+    assert ex.q_measured[:, 0].max() > LIMIT - 1e-3 - slack - 5e-4
     assert "joint-limit" in ex.statuses
     # "joint-limit" says which joint, by its name, in every cycle's reason
     name = repr(arm.joint_names[0])
     assert all(name in r for s, r in zip(ex.statuses, ex.reasons, strict=True) if s == "joint-limit")
 
 
-_RINGING = ("controller-internal: the jog's room is measured from the commanded position, but the "
-            "MuJoCo servo's pan keeps moving ~0.6 mrad after its command reaches zero (a velocity "
-            "lag the controller cannot see without the measured q̇), so it passes the stop and "
-            "limit-recovery brings it back")
-
-
-def _xfail_if(condition, reason):
-    return pytest.mark.xfail(condition, strict=True, reason=reason)
-
-
-def test_teleop_measured_joint_at_most_0p1_mrad_past_the_limit(teleop, request):
-    smoothing, _, ex = teleop
-    if not smoothing:  # measured 0.16 mrad past
-        request.applymarker(_xfail_if(True, _RINGING + "; 0.16 mrad past without smoothing"))
+def test_teleop_measured_joint_at_most_0p1_mrad_past_the_limit(teleop):
+    # the servo's pan lags its velocity command by ~20 ms (2.9 mrad at 0.13 rad/s): the room is
+    # measured from where the commands sent the joint, which it still reaches after they stop
+    _, _, ex = teleop
     assert ex.q_measured[:, 0].max() - LIMIT <= 1e-4
+
+
+def test_teleop_never_enters_limit_recovery(teleop):
+    _, _, ex = teleop
+    assert "limit-recovery" not in ex.statuses
 
 
 def test_teleop_commanded_acceleration_within_amax(teleop):
