@@ -126,7 +126,7 @@ class ResolvedRateController:
         self.timeout = positive_number("timeout", timeout, allow_inf=True, unit="[s]")
         self.singular_sigma = positive_number("singular_sigma", singular_sigma, allow_zero=True)
         if stop_sigma is None:  # where the solver starts to damp, at least singular_sigma
-            stop_sigma = max(float(getattr(self.solver, "epsilon", 0.0) or 0.0), self.singular_sigma)
+            stop_sigma = max(_damping_starts(self.solver), self.singular_sigma)
         self.stop_sigma = positive_number("stop_sigma", stop_sigma, allow_zero=True)
         if blocked not in ("joint-space", "stop"):
             raise InputError(f"blocked must be 'joint-space' or 'stop', got {blocked!r}", argument="blocked",
@@ -412,3 +412,14 @@ class ResolvedRateController:
     def __repr__(self) -> str:
         return (f"ResolvedRateController({self.chain.name!r}, solver={type(self.solver).__name__}, "
                 f"gain={self.gain.tolist()}, smoothing={self.filter is not None})")
+
+
+def _damping_starts(solver: Any) -> float:
+    """The σ_min below which ``solver`` damps a direction (`Solver.solve_direction`): an
+    adaptive solver's ``epsilon``; a solver with a constant λ (``damping``: the QP, DLS)
+    gives the exact direction down to σ_min = λ; 0 for the others."""
+    for name in ("epsilon", "damping"):
+        v = getattr(solver, name, None)
+        if isinstance(v, int | float) and v > 0.0:
+            return float(v)
+    return 0.0

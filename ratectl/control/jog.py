@@ -111,18 +111,17 @@ class JogStage:
             cyc.xi = twist.copy()
             return self._solve(cyc, q, dt, None)
         try:
-            res_w = self._progress.direction(J, twist, q, dt)
+            w, sig_w, damping_w = self._progress.direction_qd(J, twist, q, dt)
         except SingularityError as err:
             return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min)
         except (RatectlError, np.linalg.LinAlgError) as err:
             return self._halt(q, dt, f"solver failed: {err}")
-        w = np.array(res_w.qd, dtype=float)
         if not _finite_sum(w):
             return self._halt(q, dt, "solver returned a non-finite q̇")
         wp = jog.w_prev
         w_prime = (w - wp) / (jog.c * dt) if (wp is not None and jog.c > 0.0) else None
         pr = self._progress
-        caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(res_w), w_prime=w_prime,
+        caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(sig_w), w_prime=w_prime,
                               q_lead=self._m.q_lead,
                               exact=lambda q2: pr.exact_direction(q2, twist, (q, J)))
         c_prev = jog.c
@@ -134,7 +133,7 @@ class JogStage:
             if halt is not None:
                 return halt
         else:
-            cyc.res = res_w
+            cyc.res = pr.direction_result(J, twist, w, sig_w, damping_w)
             cyc.qd = w * c
             cyc.active = []
             cyc.scale = 1.0

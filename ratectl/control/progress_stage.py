@@ -47,17 +47,22 @@ class ProgressStage:
         self._solve_direction = (solver.solve_direction if isinstance(solver, Solver)
                                  else lambda J, d, **kw: _generic_direction(solver, J, d, **kw))
 
-    def direction(self, J: np.ndarray, d: np.ndarray, q: np.ndarray, dt: float) -> Any:
-        """The solver's answer for the direction ``d`` (6,) without the joint limits (which
-        bound the progress instead): q̇ per unit of progress (``.qd``), with σ_min available
-        from the result. ``q`` and ``dt`` go to solvers that need them (extra rows)."""
-        return self.solver.solve(J, d, q=q, dt=dt)
-
-    def direction_qd(self, J: np.ndarray, d: np.ndarray, q: np.ndarray, dt: float) -> tuple[np.ndarray, Any]:
-        """``(w, sigma)``: the solver's q̇ per unit of the direction ``d`` without the joint
-        limits (`Solver.solve_direction`, the validated entry) and what says σ_min(J) (for
-        `sigma_for_watch`)."""
+    def direction_qd(self, J: np.ndarray, d: np.ndarray, q: np.ndarray, dt: float
+                     ) -> tuple[np.ndarray, Any, float]:
+        """``(w, sigma, damping)``: the solver's q̇ per unit of the direction ``d`` without
+        the joint limits (`Solver.solve_direction`, the validated entry: exact where J is
+        regular), what says σ_min(J) (for `sigma_for_watch`) and the damping w has."""
         return self._solve_direction(J, d, q=q, dt=dt)
+
+    def direction_result(self, J: np.ndarray, d: np.ndarray, w: np.ndarray, sigma: Any,
+                         damping: float) -> Any:
+        """The `SolveResult` of a `direction_qd` answer (a `SolveResult` already when the
+        solver gave one): q̇ = w, achieved J w, task error d − J w."""
+        if isinstance(sigma, SolveResult):
+            return sigma
+        achieved = J.dot(w)
+        return SolveResult(qd=w.copy(), achieved=achieved, task_error=d - achieved, damping=damping,
+                           sigma_min=sigma, method=str(getattr(self.solver, "method", "solver")))
 
     def exact_direction(self, q: np.ndarray, d: np.ndarray, J_at: tuple | None = None
                         ) -> tuple[float, float]:
@@ -110,7 +115,7 @@ class ProgressStage:
 
 
 def _generic_direction(solver: Any, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
-                       dt: float | None) -> tuple[np.ndarray, Any]:
+                       dt: float | None) -> tuple[np.ndarray, Any, float]:
     """`Solver.solve_direction` for a solver object that is not a `Solver` (its ``solve``)."""
     res = solver.solve(J, d, q=q, dt=dt)
-    return np.array(res.qd, dtype=float), res
+    return np.array(res.qd, dtype=float), res, float(getattr(res, "damping", 0.0))

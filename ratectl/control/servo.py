@@ -128,7 +128,7 @@ class Servo:
         speed = 0.0
         if ap.L > 0.0:
             try:
-                w, sig_w = self._progress.direction_qd(J, ap.d, q, dt)
+                w, sig_w, _ = self._progress.direction_qd(J, ap.d, q, dt)
             except SingularityError as err:
                 return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
                                   error=cyc.e, ep=cyc.ep, eo=cyc.eo)
@@ -194,7 +194,7 @@ class Servo:
         q_end = np.array(res.q)
         try:
             J_end = self.chain.jacobian(q_end)
-            w_end = np.array(self._progress.direction(J_end, ap.d, q_end, dt).qd, dtype=float)
+            w_end = self._progress.direction_qd(J_end, ap.d, q_end, dt)[0]
         except (RatectlError, np.linalg.LinAlgError):
             return
         if _finite_sum(w_end):

@@ -422,15 +422,17 @@ class Solver:
                                        qd_ff=qd_ff)
 
     def solve_direction(self, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
-                        dt: float | None) -> tuple[np.ndarray, Any]:
+                        dt: float | None) -> tuple[np.ndarray, Any, float]:
         """The answer for a direction ``d`` (m,) without limits, for a caller that has
-        validated its inputs (as `solve_validated`): ``(w, sigma)`` with w (n,) the q̇ per
-        unit of ``d`` (a fresh writable array) and ``sigma`` whatever says σ_min(J) — here the
-        `SolveResult` (its ``sigma_min`` / ``sigma_min_at_least``); read it through
-        `sigma_at_least`. A progress along ``d`` (the servo's straight line) scales w by
-        its speed. The default calls `solve`; the QP answers from its factorisation alone."""
+        validated its inputs (as `solve_validated`): ``(w, sigma, damping)`` with w (n,) the
+        q̇ per unit of ``d`` (a fresh writable array), ``sigma`` whatever says σ_min(J) — here
+        the `SolveResult` (its ``sigma_min`` / ``sigma_min_at_least``); read it through
+        `sigma_at_least` — and the damping λ the answer has (0 for an exact one). A motion
+        along ``d`` (a jog, the servo's straight line) is w scaled by a progress: a solver
+        with a constant damping answers exactly where σ_min ≥ λ (the QP, `DLS`), so the
+        motion is not turned. The default calls `solve`."""
         res = self.solve(J, d, q=q, dt=dt)
-        return np.array(res.qd, dtype=float), res
+        return np.array(res.qd, dtype=float), res, float(res.damping)
 
     def __init__(self, *, velocity_policy: str | None = "scale", task_weights: ArrayLike | None = None,
                  joint_weights: ArrayLike | None = None) -> None:
@@ -552,6 +554,30 @@ def validated_solve_generic(solver: Any, J: np.ndarray, xi: np.ndarray, *, limit
         q = None if q is None else q + qd_ff * dt
         qd_prev = None if qd_prev is None else qd_prev - qd_ff
     return solver.solve(J, xi, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
+
+
+def min_norm_direction(J: np.ndarray, d: np.ndarray,
+                       col_scale: np.ndarray | None = None) -> np.ndarray | None:
+    """The exact direction w with J w = d in the least-squares sense, for J (m, n) of full
+    rank: the minimum-norm solution w = S (J S)ᵀ ((J S)(J S)ᵀ)⁻¹ d when m ≤ n (S =
+    diag(``col_scale``), the norm ‖S⁻¹w‖; S = I without it), else (JᵀJ)⁻¹Jᵀd. One Cholesky
+    solve of the smaller Gram matrix; None when it is not positive definite or w is not
+    finite (J rank-deficient to working precision)."""
+    m, n = J.shape
+    Js = J if col_scale is None else J * col_scale
+    if m <= n:
+        _, y, info = _dposv(Js.dot(Js.T), d)
+        if info != 0:
+            return None
+        w = y.dot(Js)
+        if col_scale is not None:
+            w *= col_scale
+    else:
+        _, w, info = _dposv(J.T.dot(J), d.dot(J))
+        if info != 0:
+            return None
+    t = sum(w.tolist())
+    return w if t - t == 0.0 else None
 
 
 def sigma_at_least(sigma: Any, threshold: float) -> tuple[bool, float]:

@@ -5,12 +5,13 @@ and selectively damped least squares (Buss & Kim 2005).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError, SingularityError
-from .base import Solver, _dgesdd, _dot, _dposv, _dpotrf, _dsyev, _LazySigma, _positive
+from .base import Solver, _dgesdd, _dot, _dposv, _dpotrf, _dsyev, _LazySigma, _positive, min_norm_direction
 from .exact import _svd
 
 __all__ = ['DLS', 'AdaptiveDLS', 'SDLS', 'adaptive_damping']
@@ -68,6 +69,20 @@ class DLS(Solver):
     def gain_bound(self) -> float:
         """Largest possible ‖q̇‖/‖ξ‖: 1/(2λ) [1/units of σ]."""
         return 0.5 / self.damping
+
+    def solve_direction(self, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
+                        dt: float | None) -> tuple[np.ndarray, Any, float]:
+        """`Solver.solve_direction`: where σ_min ≥ λ the exact direction
+        (`min_norm_direction`: J w = d, the least-norm w), not turned by the damping, which
+        shrinks each singular direction by σ²/(σ² + λ²) on its own; below, the DLS answer."""
+        Jw, dw = self._apply_weights(J, d) if self._weighted else (J, d)
+        m, n = Jw.shape
+        sigma = _LazySigma(_dot(Jw, Jw.T) if m <= n else _dot(Jw.T, Jw))
+        if sigma.value() >= self.damping:
+            w = min_norm_direction(Jw, dw)
+            if w is not None:
+                return (w if self._isw is None else w * self._isw), sigma, 0.0
+        return super().solve_direction(J, d, q=q, dt=dt)
 
     def _raw(self, J, xi):
         m, n = J.shape

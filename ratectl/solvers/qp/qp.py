@@ -25,6 +25,8 @@ from ..base import (
     _owned_result,
     _positive,
     _SigmaReference,
+    min_norm_direction,
+    sigma_at_least,
 )
 from ..damped import DLS
 from ..nullspace import _objective
@@ -195,13 +197,26 @@ class QP(Solver):
         return self._solve_checked(J, xi, _checked_entries(J, xi), limits, q, qd_prev, qd_ff, dt, None)
 
     def solve_direction(self, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
-                        dt: float | None) -> tuple[np.ndarray, Any]:
-        """`Solver.solve_direction`: with no bounds the QP's answer is its unconstrained
-        minimiser w = P⁻¹b (b = JᵀW d, plus the objective's term), the same Cholesky solve
-        as `solve` without limits, returned with σ_min(W J) lazily (a second solve with the
-        same J, the cycle's command, reuses P's factor). Inputs as for `solve_validated`."""
+                        dt: float | None) -> tuple[np.ndarray, Any, float]:
+        """`Solver.solve_direction`: where σ_min(W J) ≥ λ (the damping), the exact direction
+        (`min_norm_direction`: J w = d, the least W_q-norm w), so that a motion along it
+        (a jog, the servo's line) is not turned by the regulariser λ²‖q̇‖², which shrinks
+        each singular direction by σ²/(σ² + λ²) on its own; below, the QP's unconstrained
+        minimiser w = P⁻¹b (b = JᵀW d, plus the objective's term), as `solve` without
+        limits. With an objective always the latter (its pull is part of the answer).
+        Returned with σ_min(W J) lazily; P and its factor stay for the cycle's command (a
+        second solve with the same J). Inputs as for `solve_validated`."""
         if self.shortcut and self._pd:
             sigma, P, b = self._objective_terms(J, d, q, _checked_entries(J, d))
+            if self.objective is None and sigma_at_least(sigma, self.damping)[0]:
+                if self._rows is not None:
+                    rows, _ = self._rows
+                    Jw, dw = J[rows] * self._sw[:, None], d[rows] * self._sw
+                else:
+                    Jw, dw = J, d
+                w = min_norm_direction(Jw, dw, self._isw)
+                if w is not None:
+                    return w, sigma, 0.0
             terms = self._terms
             if terms is not None and terms[2] is P and terms[4] is not None:
                 w, info = _dpotrs(terms[4], b)
@@ -211,9 +226,9 @@ class QP(Solver):
                     self._terms = (*terms[:4], factor)
             t = sum(w.tolist())
             if info == 0 and t - t == 0.0:
-                return w, sigma
+                return w, sigma, self.damping
         res = self.solve(J, d, q=q, dt=dt)  # (the general path: its checks and errors)
-        return np.array(res.qd, dtype=float), res
+        return np.array(res.qd, dtype=float), res, float(res.damping)
 
     def _solve_checked(self, J: np.ndarray, xi: np.ndarray, entries: list[float],
                        limits: Limits | Chain | None, qv: np.ndarray | None, qd_prev_v: np.ndarray | None,
