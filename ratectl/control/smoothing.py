@@ -93,6 +93,9 @@ class VelocityFilter:
         self._inp.target_acceleration = [0.0] * self.dof
         self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
         self._per_dof = False
+        self._no_sync = [ruckig.Synchronization.No] * self.dof
+        self._zeros = np.zeros(self.dof)
+        self._half_inv_j = 0.5 / self.jmax
         self.reset()
 
     @property
@@ -159,9 +162,6 @@ class VelocityFilter:
                 braking for its position limit must brake as hard as it can).
         """
         inp = self._inp
-        if self._per_dof:
-            inp.per_dof_synchronization = None
-            self._per_dof = False
         inp.current_position = q.tolist() if type(q) is np.ndarray else list(q)
         v0, a0 = self._v, self._a
         # within ±vmax, less what the present acceleration still adds while it ramps down at
@@ -169,53 +169,75 @@ class VelocityFilter:
         ramp = a0 * a0 / (2.0 * self.jmax)
         vt = np.minimum(np.maximum(qd_target, self._neg_vmax + np.where(a0 < 0.0, ramp, 0.0)),
                         self._vtop - np.where(a0 > 0.0, ramp, 0.0))
-        if qdd_target is None:
-            ta = np.zeros(self.dof)
+        # a reference (a velocity with its acceleration) is joined by each joint on its own: one
+        # that cannot join it soon (a line braking at amax, the joint above it) then stretches
+        # no other joint's motion; a velocity alone is met by all joints together
+        sync = qdd_target is None
+        if sync:
+            ta = self._zeros
         else:
             ta = self._within_room(vt, np.minimum(np.maximum(qdd_target, -self._atop), self._atop))
-            # a reference (velocity and acceleration) is joined by each joint on its own: one
-            # that cannot join it soon (a line braking at amax, the joint above it) then
-            # stretches no other joint's motion
-            inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
-            self._per_dof = True
         own = alone = None
         if independent is not None and any(independent):
             if all(independent):  # every joint on its own (a halt), to rest acceleration
-                inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
-                self._per_dof = True
-                ta = np.zeros(self.dof)
+                sync = False
+                ta = self._zeros
             else:
                 own = np.asarray(independent, dtype=bool)
                 alone = self._one_period_on_their_own(vt, ta, own)
-                # the others, synchronised, with the independent joints given a target they
-                # are on already (their constant-acceleration extrapolation, no jerk), so that
-                # they do not stretch the synchronised motion
-                vt = np.where(own, np.minimum(np.maximum(v0 + a0 * self.dt, self._neg_vmax), self._vtop), vt)
-                ta = self._within_room(vt, np.where(own, a0, ta))
-        res = self._calculate_relative(vt, ta)
-        if res not in self._ok:  # (a safety net: a target at rest needs no synchronisation step)
-            inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
-            self._per_dof = True
-            res = self._calculate_relative(vt, ta)
+                # the others, with the independent joints kept at rest on their lines, so that
+                # they do not stretch a synchronised motion
+        res = self._calculate_relative(vt, ta, sync=sync, still=own)
+        if res not in self._ok and sync:  # (a safety net: a target at rest needs no synchronisation step)
+            sync = False
+            res = self._calculate_relative(vt, ta, sync=False, still=own)
         if res not in self._ok:
             raise SolverError(f"Ruckig velocity filter failed: {res}", status=res,
                               problem={"target_velocity": vt, "target_acceleration": ta,
                                        "velocity": v0, "acceleration": a0})
         q1, v1, a1 = self._absolute(vt, ta)
+        if not sync:
+            # a joint that joins a line pushing outward from below, faster than the line, would
+            # end too fast to stop accelerating before vmax (|q̇| + q̈²/(2·jmax) > vmax, the
+            # line itself being within it): it joins the flat line at the target velocity
+            # instead, whose time-optimal motion passes no higher than the present state's own
+            # ramp |q̇₀| + q̈₀²/(2·jmax) or the target, both within vmax
+            ramp1 = np.where(v1 * a1 > 0.0, a1 * a1, 0.0) * self._half_inv_j
+            over = (np.abs(v1) + ramp1 > self.vmax) & (ta != 0.0)
+            if own is not None:
+                over &= ~own
+            if over.any():
+                ta = np.where(over, 0.0, ta)
+                res = self._calculate_relative(vt, ta, sync=False, still=own)
+                if res not in self._ok:
+                    raise SolverError(f"Ruckig velocity filter failed: {res}", status=res,
+                                      problem={"target_velocity": vt, "velocity": v0, "acceleration": a0})
+                q1, v1, a1 = self._absolute(vt, ta)
         if own is not None and alone is not None:
             q1, v1, a1 = (np.where(own, x_alone, x) for x_alone, x in zip(alone, (q1, v1, a1), strict=True))
         self._v, self._a = v1, a1
         return q1, v1, a1
 
-    def _calculate_relative(self, vt: np.ndarray, ta: np.ndarray):
+    def _calculate_relative(self, vt: np.ndarray, ta: np.ndarray, *, sync: bool,
+                            still: np.ndarray | None = None):
         """Ruckig's update in the frame of the reference line v_r(t) = vt + ta·(t − dt):
-        from e = q̇ − v_r(0), ė = q̈ − ta to rest, with ė within [−amax − ta, amax − ta]."""
+        from e = q̇ − v_r(0), ė = q̈ − ta to rest, with ė within [−amax − ta, amax − ta];
+        the joints time-synchronised or not (``sync``). Joints in ``still`` (a mask) are
+        put at rest on their lines (their answer is not used: they stretch nothing)."""
         inp = self._inp
+        if sync == self._per_dof:
+            inp.per_dof_synchronization = None if sync else self._no_sync
+            self._per_dof = not sync
         dt = self.dt
-        inp.current_velocity = (self._v - vt + ta * dt).tolist()
-        inp.current_acceleration = (self._a - ta).tolist()
-        inp.max_acceleration = (self.amax - ta).tolist()
-        inp.min_acceleration = (-self.amax - ta).tolist()
+        e, de = self._v - vt + ta * dt, self._a - ta
+        hi, lo = self.amax - ta, -self.amax - ta
+        if still is not None:
+            e, de = np.where(still, 0.0, e), np.where(still, 0.0, de)
+            hi, lo = np.where(still, self.amax, hi), np.where(still, -self.amax, lo)
+        inp.current_velocity = e.tolist()
+        inp.current_acceleration = de.tolist()
+        inp.max_acceleration = hi.tolist()
+        inp.min_acceleration = lo.tolist()
         return self._calculate()
 
     def _absolute(self, vt: np.ndarray, ta: np.ndarray):
@@ -238,17 +260,14 @@ class VelocityFilter:
 
     def _one_period_on_their_own(self, vt: np.ndarray, ta: np.ndarray, independent: np.ndarray):
         """The ``independent`` joints' own time-optimal motion to their target velocities at
-        rest acceleration (no synchronisation): ``(q, q̇, q̈)`` one period later, or None if
-        Ruckig finds none. `update` takes the independent joints from this and the others
-        from a second, synchronised update (Ruckig stretches time-synchronised joints to
-        the duration of the whole motion, unsynchronised joints included, so a single
-        update with a braking joint unsynchronised would stretch every other joint to its
-        stop and lose their targets)."""
-        inp = self._inp
-        inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
+        rest acceleration (no synchronisation): ``(q, q̇, q̈)`` one period later (only those
+        joints' rows mean anything), or None if Ruckig finds none. `update` takes the
+        independent joints from this and the others from a second update (Ruckig stretches
+        time-synchronised joints to the duration of the whole motion, unsynchronised joints
+        included, so a single update with a braking joint unsynchronised would stretch every
+        other joint to its stop and lose their targets)."""
         at_rest = np.where(independent, 0.0, ta)
-        res = self._calculate_relative(vt, at_rest)
-        inp.per_dof_synchronization = None
+        res = self._calculate_relative(vt, at_rest, sync=False, still=~independent)
         if res not in self._ok:
             return None
         return self._absolute(vt, at_rest)
