@@ -173,7 +173,7 @@ class VelocityFilter:
         # that cannot join it soon (a line braking at amax, the joint above it) then stretches
         # no other joint's motion; a velocity alone is met by all joints together
         sync = qdd_target is None
-        if sync:
+        if qdd_target is None:
             ta = self._zeros
         else:
             ta = self._within_room(vt, np.minimum(np.maximum(qdd_target, -self._atop), self._atop))
