@@ -46,9 +46,10 @@ class VelocityFilter:
     """Online jerk-limited velocity filter (Ruckig velocity interface), one per control loop.
 
     Each `update` advances the filter state by one period ``dt`` towards the
-    target velocity (clipped to ±vmax) — and target acceleration, if given — with
+    target velocity (clipped to ±vmax) — and target acceleration, if given: then the
+    target is a moving reference, joined in its own frame (see `update`) — with
     |q̈| ≤ amax and |q⃛| ≤ jmax. Ruckig's ``minimum_duration`` is set to ``dt``, so a
-    target state that is reachable within one period is met exactly at the next cycle
+    target that is reachable within one period is met exactly at the next cycle
     (a jerk-feasible reference with its acceleration is tracked without lag). The
     Ruckig objects are created once and kept; the filter owns the current velocity and
     acceleration.
