@@ -34,6 +34,7 @@ if TYPE_CHECKING:
 __all__ = ["Servo"]
 
 _AT_BLOCK = 1e-5  # [progress units ~ m]: an approach at rest this close to a block stands at it
+_AT_LIMIT = 1e-4  # [rad or m]: a joint-line goal this close to the limit the joint stands at stays put
 _LAG_MAX = 0.02  # [m, weighted]: the approach's progress stops when the arm is this far behind it
 
 
@@ -223,11 +224,28 @@ class Servo:
                          damping=0.05, max_step=0.1)
         if not res.converged:
             return block + "; no inverse-kinematics solution within the joint limits from here"
-        self._joint_line.start(target, q, np.array(res.q), self._m.qd)
+        q_goal = np.array(res.q)
+        if self.filter is not None:
+            q_goal = self._off_held_limits(q, q_goal, target)
+        self._joint_line.start(target, q, q_goal, self._m.qd)
         self._line_blocked = block
         cyc.reasons.append(f"the straight line is blocked ({block}): moving in joint space to an "
                            "inverse-kinematics solution of the target instead (the tool leaves the line)")
         return None
+
+    def _off_held_limits(self, q, q_goal, target):
+        """A joint that the solution puts on a position limit it already stands at (within
+        `_AT_LIMIT`) stays where it is, if the pose is then still within the tolerances:
+        the smoothed position guard holds a joint at rest that close to its limit, and the
+        joint line, which the guard's clip scales as a whole, would then hold every joint."""
+        ch = self.chain
+        held = (np.abs(q_goal - q) < _AT_LIMIT) & ((q_goal >= ch.upper) | (q_goal <= ch.lower))
+        if not held.any():
+            return q_goal
+        q_near = np.where(held, q, q_goal)
+        e = np.zeros(6)
+        ep, eo = pose_error_into(e, target, ch.fk(q_near))
+        return q_near if ep <= self.position_tolerance and eo <= self.orientation_tolerance else q_goal
 
     def _joint_servo(self, cyc: Cycle, q, dt, target, T, J) -> Command | None:
         """One period on the `JointLine`: q̇ = ṡ̄·u + K·(q(s) − q) (the progress within the

@@ -46,9 +46,10 @@ class VelocityFilter:
     """Online jerk-limited velocity filter (Ruckig velocity interface), one per control loop.
 
     Each `update` advances the filter state by one period ``dt`` towards the
-    target velocity (clipped to ±vmax) — and target acceleration, if given — with
+    target velocity (clipped to ±vmax) — and target acceleration, if given: then the
+    target is a moving reference, joined in its own frame (see `update`) — with
     |q̈| ≤ amax and |q⃛| ≤ jmax. Ruckig's ``minimum_duration`` is set to ``dt``, so a
-    target state that is reachable within one period is met exactly at the next cycle
+    target that is reachable within one period is met exactly at the next cycle
     (a jerk-feasible reference with its acceleration is tracked without lag). The
     Ruckig objects are created once and kept; the filter owns the current velocity and
     acceleration.
@@ -87,8 +88,15 @@ class VelocityFilter:
         # reach the target state no earlier than the next cycle: a feasible (q̇, q̈) reference
         # is then met exactly at t + dt instead of early (and overshot by q̈·(dt − T))
         self._inp.minimum_duration = dt
+        self._set_atop(dt)
+        # the target is rest in the frame of the reference (see `update`)
+        self._inp.target_velocity = [0.0] * self.dof
+        self._inp.target_acceleration = [0.0] * self.dof
         self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
         self._per_dof = False
+        self._no_sync = [ruckig.Synchronization.No] * self.dof
+        self._zeros = np.zeros(self.dof)
+        self._half_inv_j = 0.5 / self.jmax
         self.reset()
 
     @property
@@ -99,39 +107,51 @@ class VelocityFilter:
     def dt(self, value: float) -> None:
         self._otg.delta_time = float(value)
         self._inp.minimum_duration = float(value)
+        self._set_atop(float(value))
+
+    def _set_atop(self, dt: float) -> None:
+        """The largest target acceleration: amax less one period of jerk, jmax·dt (at most
+        half of amax), so that a joint off a reference line braking or accelerating at the
+        limit can still join it (at amax itself the line leaves it no room at all)."""
+        self._atop = self.amax - np.minimum(self.jmax * dt, 0.5 * self.amax)
 
     def reset(self, qd: ArrayLike | None = None, qdd: ArrayLike | None = None) -> None:
         """Set the filter state (default: at rest)."""
-        z = [0.0] * self.dof
-        self._inp.current_velocity = z if qd is None else np.asarray(qd, dtype=float).tolist()
-        self._inp.current_acceleration = z if qdd is None else np.asarray(qdd, dtype=float).tolist()
-        self._inp.target_acceleration = z
-        self._ta_set = False
+        self._v = np.zeros(self.dof) if qd is None else np.array(qd, dtype=float).reshape(self.dof)
+        self._a = np.zeros(self.dof) if qdd is None else np.array(qdd, dtype=float).reshape(self.dof)
 
     def _calculate(self):
         """One Ruckig update; a RuckigError exception (the Python binding raises some
         failures instead of returning them) becomes an error result."""
         try:
             return self._otg.update(self._inp, self._out)
-        except self._ruckig.RuckigError as exc:
+        except (self._ruckig.RuckigError, ValueError) as exc:  # (ValueError: a code the binding lacks)
             return exc
 
     @property
     def velocity(self) -> np.ndarray:
-        return np.array(self._inp.current_velocity)
+        return self._v.copy()
 
     @property
     def acceleration(self) -> np.ndarray:
-        return np.array(self._inp.current_acceleration)
+        return self._a.copy()
 
     def update(self, q: np.ndarray, qd_target: np.ndarray, qdd_target: np.ndarray | None = None, *,
                independent: np.ndarray | None = None):
         """One period: returns ``(q_next, qd, qdd)`` of the jerk-limited motion from ``q``.
 
-        The joints are time-synchronised (they reach the target velocity together, so the
-        joint-space direction of the change is kept), except those in ``independent``,
-        which move time-optimally on their own (see `_one_period_on_their_own`: the
-        others still meet their targets within the period).
+        The target is a moving reference: the velocity line v_r(t) = v̄ + ā·(t − dt) that
+        passes the target velocity v̄ at the end of the period with the target acceleration
+        ā. Each joint moves onto it time-optimally within |q̈| ≤ amax, |q⃛| ≤ jmax, computed
+        in the reference's own frame, e = q̇ − v_r (ë = q⃛, since v_r has no jerk), as Ruckig's
+        velocity interface from (e, ė) to rest: a reference reachable within the period is
+        met exactly at its end; one that is not (its acceleration does not quite match its
+        velocity's change) is joined as fast as the jerk allows, never by a detour to the
+        fixed state (v̄, ā), which can take many periods and starts off the wrong way. The
+        joints are time-synchronised (they join the reference together, so the joint-space
+        direction of the change is kept), except those in ``independent``, which move
+        time-optimally on their own (see `_one_period_on_their_own`: the others still meet
+        their targets within the period).
 
         Args:
             q: current joint positions (n,) (the position the motion starts from).
@@ -143,78 +163,92 @@ class VelocityFilter:
                 braking for its position limit must brake as hard as it can).
         """
         inp = self._inp
-        if self._per_dof:
-            inp.per_dof_synchronization = None
-            self._per_dof = False
         inp.current_position = q.tolist() if type(q) is np.ndarray else list(q)
+        v0, a0 = self._v, self._a
         # within ±vmax, less what the present acceleration still adds while it ramps down at
         # jmax (a²/(2·jmax)): a target at vmax met with a > 0 would pass it
-        a_now = np.asarray(inp.current_acceleration)
-        ramp = a_now * a_now / (2.0 * self.jmax)
-        vt = np.minimum(np.maximum(qd_target, self._neg_vmax + np.where(a_now < 0.0, ramp, 0.0)),
-                        self._vtop - np.where(a_now > 0.0, ramp, 0.0))
-        ta = None
-        if qdd_target is not None:
-            ta = np.minimum(np.maximum(qdd_target, -self.amax), self.amax)
-            ta = self._within_room(vt, ta)
-        own = None
+        ramp = a0 * a0 / (2.0 * self.jmax)
+        vt = np.minimum(np.maximum(qd_target, self._neg_vmax + np.where(a0 < 0.0, ramp, 0.0)),
+                        self._vtop - np.where(a0 > 0.0, ramp, 0.0))
+        # a reference (a velocity with its acceleration) is joined by each joint on its own: one
+        # that cannot join it soon (a line braking at amax, the joint above it) then stretches
+        # no other joint's motion; a velocity alone is met by all joints together
+        sync = qdd_target is None
+        if qdd_target is None:
+            ta = self._zeros
+        else:
+            ta = self._within_room(vt, np.minimum(np.maximum(qdd_target, -self._atop), self._atop))
+        own = alone = None
         if independent is not None and any(independent):
             if all(independent):  # every joint on its own (a halt), to rest acceleration
-                inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
-                self._per_dof = True
-                ta = None if ta is None else np.zeros(self.dof)
+                sync = False
+                ta = self._zeros
             else:
                 own = np.asarray(independent, dtype=bool)
                 alone = self._one_period_on_their_own(vt, ta, own)
-                # the others, synchronised, with the independent joints given a target they
-                # reach at once (their constant-acceleration extrapolation, no jerk), so that
-                # they do not stretch the synchronised motion
-                v0 = np.array(inp.current_velocity)
-                a0 = np.array(inp.current_acceleration)
-                vt = np.where(own, np.minimum(np.maximum(v0 + a0 * self.dt, self._neg_vmax), self._vtop), vt)
-                ta = self._within_room(vt, np.where(own, a0, 0.0 if ta is None else ta))
-        inp.target_velocity = vt.tolist()
-        if ta is not None:
-            inp.target_acceleration = ta.tolist()
-            self._ta_set = True
-        elif self._ta_set:
-            inp.target_acceleration = [0.0] * self.dof
-            self._ta_set = False
-        res = self._calculate()
-        if res not in self._ok:
-            # Ruckig cannot always synchronise target accelerations (its step 2): fall back
-            # to reaching the target velocities at rest acceleration, each joint on its own
-            inp.target_acceleration = [0.0] * self.dof
-            self._ta_set = True
-            inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
-            self._per_dof = True
-            res = self._calculate()
-        elif not self._per_dof and own is None and self._out.trajectory.duration > self.dt * (1.0 + 1e-9):
-            # every joint could meet its target within the period, yet the synchronised motion
-            # is longer (Ruckig finds no common duration of exactly dt for some targets with
-            # accelerations, and takes the next feasible one, far later): met each on its own,
-            # the joints reach the reference, up to the few 1e-5 rad/s that a joint finishing
-            # early moves at its target acceleration until the period ends
-            # (a joint that finishes early moves on at its target acceleration: that acceleration
-            # leaves room to stop before vmax from where the period then ends)
-            if max(self._out.trajectory.independent_min_durations) <= self.dt * (1.0 + 1e-9):
-                if ta is not None:  # room for the early finish's extra speed |a|·dt too
-                    ahead = vt + ta * self.dt
-                    inp.target_acceleration = self._within_room(ahead, ta).tolist()
-                inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
-                self._per_dof = True
-                res = self._calculate()
+                # the others, with the independent joints kept at rest on their lines, so that
+                # they do not stretch a synchronised motion
+        res = self._calculate_relative(vt, ta, sync=sync, still=own)
+        if res not in self._ok and sync:  # (a safety net: a target at rest needs no synchronisation step)
+            sync = False
+            res = self._calculate_relative(vt, ta, sync=False, still=own)
         if res not in self._ok:
             raise SolverError(f"Ruckig velocity filter failed: {res}", status=res,
-                              problem={"target_velocity": vt, "velocity": inp.current_velocity,
-                                       "acceleration": inp.current_acceleration})
-        out = self._out
-        q1, v1, a1 = np.array(out.new_position), np.array(out.new_velocity), np.array(out.new_acceleration)
+                              problem={"target_velocity": vt, "target_acceleration": ta,
+                                       "velocity": v0, "acceleration": a0})
+        q1, v1, a1 = self._absolute(vt, ta)
+        if not sync:
+            # a joint that joins a line pushing outward from below, faster than the line, would
+            # end too fast to stop accelerating before vmax (|q̇| + q̈²/(2·jmax) > vmax, the
+            # line itself being within it): it joins the flat line at the target velocity
+            # instead, whose time-optimal motion passes no higher than the present state's own
+            # ramp |q̇₀| + q̈₀²/(2·jmax) or the target, both within vmax
+            ramp1 = np.where(v1 * a1 > 0.0, a1 * a1, 0.0) * self._half_inv_j
+            over = (np.abs(v1) + ramp1 > self.vmax) & (ta != 0.0)
+            if own is not None:
+                over &= ~own
+            if over.any():
+                ta = np.where(over, 0.0, ta)
+                res = self._calculate_relative(vt, ta, sync=False, still=own)
+                if res not in self._ok:
+                    raise SolverError(f"Ruckig velocity filter failed: {res}", status=res,
+                                      problem={"target_velocity": vt, "velocity": v0, "acceleration": a0})
+                q1, v1, a1 = self._absolute(vt, ta)
         if own is not None and alone is not None:
             q1, v1, a1 = (np.where(own, x_alone, x) for x_alone, x in zip(alone, (q1, v1, a1), strict=True))
-        inp.current_velocity = v1.tolist()
-        inp.current_acceleration = a1.tolist()
+        self._v, self._a = v1, a1
         return q1, v1, a1
+
+    def _calculate_relative(self, vt: np.ndarray, ta: np.ndarray, *, sync: bool,
+                            still: np.ndarray | None = None):
+        """Ruckig's update in the frame of the reference line v_r(t) = vt + ta·(t − dt):
+        from e = q̇ − v_r(0), ė = q̈ − ta to rest, with ė within [−amax − ta, amax − ta];
+        the joints time-synchronised or not (``sync``). Joints in ``still`` (a mask) are
+        put at rest on their lines (their answer is not used: they stretch nothing)."""
+        inp = self._inp
+        if sync == self._per_dof:
+            inp.per_dof_synchronization = None if sync else self._no_sync
+            self._per_dof = not sync
+        dt = self.dt
+        e, de = self._v - vt + ta * dt, self._a - ta
+        hi, lo = self.amax - ta, -self.amax - ta
+        if still is not None:
+            e, de = np.where(still, 0.0, e), np.where(still, 0.0, de)
+            hi, lo = np.where(still, self.amax, hi), np.where(still, -self.amax, lo)
+        inp.current_velocity = e.tolist()
+        inp.current_acceleration = de.tolist()
+        inp.max_acceleration = hi.tolist()
+        inp.min_acceleration = lo.tolist()
+        return self._calculate()
+
+    def _absolute(self, vt: np.ndarray, ta: np.ndarray):
+        """``(q, q̇, q̈)`` at the end of the period from Ruckig's answer in the reference's
+        frame (`_calculate_relative`): q̇ = v_r + e, q̈ = ta + ė, and q the start plus
+        ∫e dt (Ruckig's position) plus ∫v_r dt = vt·dt − ta·dt²/2."""
+        out = self._out
+        dt = self.dt
+        q1 = np.array(out.new_position) + vt * dt - ta * (0.5 * dt * dt)
+        return q1, np.array(out.new_velocity) + vt, np.array(out.new_acceleration) + ta
 
     def _within_room(self, vt: np.ndarray, ta: np.ndarray) -> np.ndarray:
         """Target accelerations that keep the filter below vmax: |a| ≤ √(2·jmax·(vmax − |v|)).
@@ -225,25 +259,19 @@ class VelocityFilter:
         room = np.sqrt(2.0 * self.jmax * np.maximum(self.vmax - np.abs(vt), 0.0))
         return np.sign(ta) * np.minimum(np.abs(ta), room)
 
-    def _one_period_on_their_own(self, vt: np.ndarray, ta: np.ndarray | None, independent: np.ndarray):
+    def _one_period_on_their_own(self, vt: np.ndarray, ta: np.ndarray, independent: np.ndarray):
         """The ``independent`` joints' own time-optimal motion to their target velocities at
-        rest acceleration (no synchronisation): ``(q, q̇, q̈)`` one period later, or None if
-        Ruckig finds none. `update` takes the independent joints from this and the others
-        from a second, synchronised update (Ruckig stretches time-synchronised joints to
-        the duration of the whole motion, unsynchronised joints included, so a single
-        update with a braking joint unsynchronised would stretch every other joint to its
-        stop and lose their targets)."""
-        inp = self._inp
-        inp.per_dof_synchronization = [self._ruckig.Synchronization.No] * self.dof
-        inp.target_velocity = vt.tolist()
-        at_rest = np.zeros(self.dof) if ta is None else np.where(independent, 0.0, ta)
-        inp.target_acceleration = at_rest.tolist()
-        res = self._calculate()
-        inp.per_dof_synchronization = None
+        rest acceleration (no synchronisation): ``(q, q̇, q̈)`` one period later (only those
+        joints' rows mean anything), or None if Ruckig finds none. `update` takes the
+        independent joints from this and the others from a second update (Ruckig stretches
+        time-synchronised joints to the duration of the whole motion, unsynchronised joints
+        included, so a single update with a braking joint unsynchronised would stretch every
+        other joint to its stop and lose their targets)."""
+        at_rest = np.where(independent, 0.0, ta)
+        res = self._calculate_relative(vt, at_rest, sync=False, still=~independent)
         if res not in self._ok:
             return None
-        out = self._out
-        return np.array(out.new_position), np.array(out.new_velocity), np.array(out.new_acceleration)
+        return self._absolute(vt, at_rest)
 
 
 class ProgressProfile:

@@ -58,12 +58,20 @@ REGRESSION = [
     ("urdf:rail_ur_like", 0, 4e-3),
     ("builtin:iiwa7", 3, 1e-3),
     ("builtin:iiwa7", 1, 4e-3),
+    # the filter, given a reference it could not meet within one period by a hair (a joint
+    # 1.8 % or 0.9 % too slow), went the time-optimal way to that fixed (q̇, q̈), a detour of
+    # 0.16–0.18 s, and fell behind the reference: 11.1 mm past a 149 mm step (planar2r),
+    # 4.6 mm past a 179 mm step after two restarts of the line from the lagging arm (FR3)
+    ("builtin:planar2r", 1, 4e-3),
+    ("urdf:fr3_urdf", 2, 1e-3),
 ]
 
 
 @pytest.mark.parametrize(("arm", "index", "dt"), REGRESSION,
                          ids=[f"{a}-{i}-{d * 1e3:g}ms" for a, i, d in REGRESSION])
 def test_smoothed_regressions(arm, index, dt):
+    if arm not in ARMS:
+        pytest.skip(f"{arm} not available")
     chain = ARMS[arm]()
     case = harness.make_cases(arm, chain, index + 1, seed=0)[index]
     out = _check(harness.smoothing_limits(chain), case, smoothing=True, dt=dt)

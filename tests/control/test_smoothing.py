@@ -249,3 +249,24 @@ def test_with_smoothing_the_qp_gets_no_acceleration_box_around_the_filter():
     r_smooth, statuses = circle(smoothing=True)
     assert abs(r_smooth - r_plain) < 1e-3
     assert "acceleration-limited" not in statuses[200:]
+
+
+def test_a_reference_just_out_of_one_periods_reach_is_joined_not_detoured():
+    """A velocity target with its acceleration is a moving reference line. A joint 2e-4 rad/s
+    off it (8× the J·dt²/4 it can correct within one period at its acceleration) used to be
+    sent on Ruckig's time-optimal way to the fixed state (v̄, ā), a detour many periods long
+    that starts off the wrong way, and drifted further every period (9e-4 rad/s off after
+    40 ms; the smoothed servo then overshot its target). It joins the line in a few periods,
+    its acceleration swinging by no more than the time-optimal join needs, 2·√(jmax·e)."""
+    dt, jmax, err0 = 1e-3, 100.0, 2e-4
+    f = VelocityFilter(2, dt=dt, vmax=3.0, amax=10.0, jmax=jmax)
+    f.reset([0.5 + err0, -0.3], [4.0, -1.0])
+    q = np.zeros(2)
+    swing = 0.0
+    for k in range(1, 41):
+        vt = np.array([0.5 + 4.0 * k * dt, -0.3 - 1.0 * k * dt])
+        q, v, a = f.update(q, vt, np.array([4.0, -1.0]))
+        swing = max(swing, abs(a[0] - 4.0))
+    assert abs(v[0] - vt[0]) < 1e-9 and abs(a[0] - 4.0) < 1e-9
+    assert abs(v[1] - vt[1]) < 1e-12 and abs(a[1] + 1.0) < 1e-12  # (on its line: met exactly)
+    assert swing <= 2.0 * np.sqrt(jmax * err0) + 1e-9
