@@ -9,7 +9,9 @@ periods from the stamps); they run at twice real time.
 from __future__ import annotations
 
 import math
+import sys
 from importlib import metadata
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +22,9 @@ from ratectl.cli import demo
 pytest.importorskip("mujoco")
 
 from ratectl.interop.mujoco import MujocoDriver  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from pan_teleop import base_turn, pan_limited  # noqa: E402
 
 PERIOD = 0.002
 RATE = 1000.0  # wall-clock pacing: twice the physics rate
@@ -55,21 +60,9 @@ LIMIT = 0.6  # the shoulder pan's position limit [rad]
 @pytest.fixture(scope="module", params=[False, True], ids=["no-smoothing", "smoothing"])
 def teleop(request):
     """The UR10 turned about its base by a 0.12 m/s twist for 6 s, into a 0.6 rad pan limit."""
-    base = rc.Chain.from_urdf(_ur10_urdf(), tip="tool0")
-    qlim = np.column_stack([base.lower, base.upper])
-    qlim[0] = (-LIMIT, LIMIT)
-    arm = base.with_limits(qlim=qlim, amax=4.0, jmax=40.0)
+    arm = pan_limited(rc.Chain.from_urdf(_ur10_urdf(), tip="tool0"), LIMIT)
     q0 = np.array([0.3, -1.2, 1.5, -1.9, -1.57, 0.0])
-    p = arm.fk(q0)[:3, 3]
-    r, phi0 = math.hypot(p[0], p[1]), math.atan2(p[1], p[0])
-    w = 0.12 / r
-
-    def twist(t):
-        if t > 6.0:
-            return None
-        phi = phi0 + w * t
-        return np.array([-0.12 * math.sin(phi), 0.12 * math.cos(phi), 0.0, 0.0, 0.0, w])
-
+    twist = base_turn(arm, q0, speed=0.12, until=6.0)
     ctrl = rc.ResolvedRateController(arm, smoothing=request.param)
     ex = rc.run(MujocoDriver(arm, q0=q0, period=PERIOD), twist=twist, controller=ctrl, rate_hz=RATE)
     return request.param, arm, ex

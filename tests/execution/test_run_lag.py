@@ -11,12 +11,17 @@ runs are deterministic however loaded the machine is; each lasts 0.75 s of wall-
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import ratectl as rc
 from ratectl.drivers import ScriptedDriver
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "drivers"))
+from pan_teleop import base_turn, pan_limited  # noqa: E402
 
 LIMIT = 0.6  # the shoulder pan's upper limit [rad]
 LAG = 0.05  # the servo's time constant [s]: 25 periods at 500 Hz
@@ -26,20 +31,9 @@ MARGIN = 1e-3  # a jog stops this far inside a limit [rad]
 @pytest.fixture(scope="module", params=[False, True], ids=["no-smoothing", "smoothing"])
 def jog(request):
     """A UR5e turned about its base at 0.12 m/s into a 0.6 rad pan limit, on an arm lagging 50 ms."""
-    base = rc.robots.ur5e()
-    qlim = np.column_stack([base.lower, base.upper])
-    qlim[0] = (-LIMIT, LIMIT)
-    arm = base.with_limits(qlim=qlim, amax=4.0, jmax=40.0)
+    arm = pan_limited(rc.robots.ur5e(), LIMIT)
     q0 = np.array([0.5, -1.3, 1.6, -1.8, -1.5, 0.2])
-    p = arm.fk(q0)[:3, 3]
-    r, phi0 = math.hypot(p[0], p[1]), math.atan2(p[1], p[0])
-    w = 0.12 / r
-
-    def twist(t):
-        if t > 1.5:
-            return None
-        phi = phi0 + w * t
-        return np.array([-0.12 * math.sin(phi), 0.12 * math.cos(phi), 0.0, 0.0, 0.0, w])
+    twist = base_turn(arm, q0, speed=0.12, until=1.5)
 
     drv = ScriptedDriver(arm, q0, lag=LAG, period=0.002)
     ctrl = rc.ResolvedRateController(arm, smoothing=request.param)
