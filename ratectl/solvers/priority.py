@@ -32,10 +32,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from operator import gt as _gt
+from operator import lt as _lt
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.linalg import lapack as _lapack
 
 from ..arrays import read_only
 from ..errors import InputError, SolverError
@@ -43,6 +46,9 @@ from ..model.limits import Limits
 from .base import _positive
 from .qp.active_set import qp_via_dual
 from .qp.bounds import _BIG, _BoundCache, _box, _vec
+
+_dposv = _lapack.dposv
+_dgesdd = _lapack.dgesdd
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -209,75 +215,124 @@ class PriorityCascade:
         qdv = _vec("qd_prev", qd_prev, n)
         if dt is not None:
             dt = _positive("dt", dt)
-        lo, hi = self.box(n, limits, qv, qdv, dt)
         G, h = self._rows(extra_inequalities, n)
+        return self.solve_validated(lv, limits=limits, q=qv, qd_prev=qdv, dt=dt,
+                                    extra_inequalities=(G, h) if h.size else None)
+
+    def solve_validated(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]], *,
+                        limits: Limits | Chain | None, q: np.ndarray | None, qd_prev: np.ndarray | None,
+                        dt: float | None,
+                        extra_inequalities: tuple[np.ndarray, np.ndarray] | None = None) -> CascadeResult:
+        """`solve` without its checks, for a caller that has made them (the controller's
+        tasks stage): ``levels`` are ``(A, b, sw)`` triples of finite float64 arrays, A (m, n),
+        b (m,) and ``sw`` (m,) the square roots of the row weights or None (all 1); ``q`` and
+        ``qd_prev`` finite float64 (n,) or None; ``dt`` > 0 or None; ``extra_inequalities``
+        ``(G (k, n), h (k,))`` float64 with k ≥ 1, or None. The answer is `solve`'s."""
+        n = levels[0][0].shape[1]
+        lo, hi = self.box(n, limits, q, qd_prev, dt)
+        if extra_inequalities is None:
+            G, h = np.zeros((0, n)), np.zeros(0)
+        else:
+            G, h = extra_inequalities
         try:
-            return self._cascade(lv, lo, hi, G, h, np.zeros(h.shape[0]), n)
+            return self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]), n)
         except _Infeasible:
             if not h.size:
                 raise SolverError(f"the priority cascade's first level failed on backend "
                                   f"{self.backend!r}", status="failed") from None
         relaxed, feasible = self._relaxation(lo, hi, G, h)
-        return self._cascade(lv, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible)
+        return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible)
 
     def _cascade(self, lv, lo, hi, G, h, relaxed, n, fallback=None) -> CascadeResult:
         """The levels in order; ``fallback`` (a q̇ known to satisfy the box and the rows)
         stands in for the first level's QP if its backend finds no point (a relaxed problem
-        on the edge of its tolerance)."""
+        on the edge of its tolerance).
+
+        Per level: ``H = MᵀM + λ²I`` (M the weighted rows in the free directions) solved by
+        one Cholesky (LAPACK ``dposv``) for the unconstrained answer; the box and the rows
+        are tested on Python floats; the null space for the next level from one SVD of M
+        (``dgesdd``), skipped after the last level."""
         x = np.minimum(np.maximum(np.zeros(n), lo), hi)
         Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
         lam2 = self.damping**2
-        qps = np.zeros(len(lv), dtype=bool)
-        freedom = np.zeros(len(lv), dtype=int)
+        nlev = len(lv)
+        qps = [False] * nlev
+        freedom = [0] * nlev
         have_rows = h.size > 0
+        lo_l = (lo - 1e-12).tolist()
+        hi_l = (hi + 1e-12).tolist()
+        h_tol = h + 1e-12 * (1.0 + np.abs(h)) if have_rows else h
         for k, (A, b, sw) in enumerate(lv):
             r = n if Z is None else Z.shape[1]
             freedom[k] = r
             if r == 0:
                 continue
-            M = sw[:, None] * A if Z is None else (sw[:, None] * A) @ Z
-            rhs = sw * (b - A @ x)
-            # min ½‖M z − rhs‖² + ½λ²‖x + Z z‖²
+            Mw = A if sw is None else sw[:, None] * A
+            M = Mw if Z is None else Mw @ Z
+            rhs = b - A @ x
+            if sw is not None:
+                rhs *= sw
+            # min ½‖M z − rhs‖² + ½λ²‖x + Z z‖²: H z = −f
             H = M.T @ M
-            f = -(M.T @ rhs)
+            g = M.T @ rhs  # −f
             if lam2:
-                H = H + lam2 * np.eye(r)
-                f = f + lam2 * (x if Z is None else Z.T @ x)
-            try:
-                z = -np.linalg.solve(H, f)
-            except np.linalg.LinAlgError:
-                z = -np.linalg.lstsq(H, f, rcond=None)[0]
+                H.flat[:: r + 1] += lam2
+                g -= lam2 * (x if Z is None else Z.T @ x)
+            z = _spd_solve(H, g)
             step = z if Z is None else Z @ z
             cand = x + step
-            ok = bool(np.all(cand >= lo - 1e-12) and np.all(cand <= hi + 1e-12))
+            cl = cand.tolist()
+            ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
             if ok and have_rows:
-                ok = bool(np.all(G @ cand <= h + 1e-12 * (1.0 + np.abs(h))))
+                ok = bool((G @ cand <= h_tol).all())
+            V = None
             if not ok:
                 qps[k] = True
-                try:
-                    z = self._level_qp(H, f, x, Z, lo, hi, G, h, n, r)
-                except _Infeasible:
-                    if fallback is None:
-                        raise
-                    z = fallback - x
-                step = z if Z is None else Z @ z
-                cand = x + step
+                seg = None
+                if r == 1:
+                    # a QP in one unknown: its unconstrained minimiser clipped to the interval
+                    # the box and the rows leave along the one free direction
+                    v = Z[:, 0] if Z is not None else np.ones(1)
+                    seg = _segment(x, v, lo, hi, G, h)
+                    if seg is not None:
+                        cand = x + v * min(max(float(z[0]), seg[0]), seg[1])
+                elif k + 1 < nlev:
+                    V = _null_space(M, self.tolerance)
+                    if V.shape[1] == 1:
+                        # the level's minimisers are a line through cand (its rows do not see
+                        # the direction v): where the line crosses the box and the rows, its
+                        # point of least norm (the damping's choice) is the level's answer
+                        v = V[:, 0] if Z is None else Z @ V[:, 0]
+                        seg = _segment(cand, v, lo, hi, G, h)
+                        if seg is not None:
+                            cand = cand + v * min(max(-float(v @ cand), seg[0]), seg[1])
+                if seg is None:
+                    try:
+                        z = self._level_qp(H, -g, x, Z, lo, hi, G, h, n, r)
+                    except _Infeasible:
+                        if fallback is None:
+                            raise
+                        z = fallback - x
+                    step = z if Z is None else Z @ z
+                    cand = x + step
             x = cand
             # what the next levels may still change: the null space of this level's rows
-            if k + 1 < len(lv):
-                _, s, vt = np.linalg.svd(M, full_matrices=True)
-                tol = self.tolerance * max(1.0, float(s[0]) if s.size else 0.0)
-                rank = int(np.count_nonzero(s > tol))
-                V = vt[rank:].T
+            if k + 1 < nlev:
+                if V is None:
+                    V = _null_space(M, self.tolerance)
                 Z = V if Z is None else Z @ V
         x = np.minimum(np.maximum(x, lo), hi)
-        residuals = np.array([math.sqrt(float(np.sum((sw * (A @ x - b)) ** 2))) for A, b, sw in lv])
-        span = np.maximum(1.0, np.abs(hi) + np.abs(lo))
-        box_active = (x >= hi - _ACT_TOL * span) | (x <= lo + _ACT_TOL * span)
+        res = []
+        for A, b, sw in lv:
+            d = A @ x - b
+            if sw is not None:
+                d *= sw
+            res.append(math.sqrt(d.dot(d)))
+        tol = _ACT_TOL * np.maximum(np.abs(hi) + np.abs(lo), 1.0)
+        box_active = (x >= hi - tol) | (x <= lo + tol)
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else np.zeros(0, dtype=bool)
-        return CascadeResult(qd=x, residuals=residuals, qps=qps, freedom=freedom, lower=lo, upper=hi,
-                             box_active=box_active, rows_active=rows_active, relaxed=relaxed,
-                             backend=self.backend)
+        return _owned_result(x, np.array(res), np.array(qps), np.array(freedom), lo, hi, box_active,
+                             rows_active, relaxed, self.backend)
 
     # ------------------------------------------------------------------ pieces
     @staticmethod
@@ -296,9 +351,10 @@ class PriorityCascade:
         if A.ndim != 2 or b.shape != (A.shape[0],):
             raise InputError(f"level {k}: A must be (m, n) and b (m,), got {A.shape} and {b.shape}",
                              argument="levels", value=(A.shape, b.shape))
-        sw = np.ones(A.shape[0]) if w is None else np.sqrt(np.broadcast_to(np.asarray(w, dtype=float),
+        sw = None if w is None else np.sqrt(np.broadcast_to(np.asarray(w, dtype=float),
                                                                             (A.shape[0],)))
-        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b)) and np.all(np.isfinite(sw))):
+        finite = np.all(np.isfinite(A)) and np.all(np.isfinite(b))
+        if not (finite and (sw is None or np.all(np.isfinite(sw)))):
             raise InputError(f"level {k}: A, b and the weights must be finite", argument="levels",
                              value=k)
         return A, b, sw
@@ -367,7 +423,7 @@ class PriorityCascade:
                 bu = np.ascontiguousarray(d, dtype=float)
                 bl = np.full(d.shape[0], -_BIG)
             sense = np.zeros(bu.shape[0], dtype=np.int32)
-            Cc = np.ascontiguousarray(C, dtype=float) if C.shape[0] else np.zeros((0, r))
+            Cc = np.array(C, dtype=float) if C.shape[0] else np.zeros((0, r))  # (daqp needs a writable copy)
             x, _, flag, _ = daqp.solve(np.ascontiguousarray(H), np.ascontiguousarray(f, dtype=float), Cc,
                                        bu, bl, sense)
             return np.asarray(x, dtype=float) if flag in (1, 2) else None
@@ -386,3 +442,67 @@ class PriorityCascade:
         except Exception:  # a backend's own exception types: reported as a failed level
             return None
         return None if x is None else np.asarray(x, dtype=float)
+
+
+def _spd_solve(H: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """H⁻¹g for a symmetric positive (semi)definite H: Cholesky (LAPACK ``dposv``), the
+    least-squares answer where H is singular (λ = 0 and rank-deficient rows)."""
+    c, z, info = _dposv(H, g)
+    if info == 0:
+        return z
+    return np.linalg.lstsq(H, g, rcond=None)[0]
+
+
+def _segment(c: np.ndarray, v: np.ndarray, lo: np.ndarray, hi: np.ndarray, G: np.ndarray,
+             h: np.ndarray) -> tuple[float, float] | None:
+    """``(t_min, t_max)``: the t with ``lo ≤ c + v t ≤ hi`` and ``G (c + v t) ≤ h``, or None
+    when there is none (on Python floats: a few joints and rows)."""
+    tmin, tmax = -math.inf, math.inf
+    a = v.tolist()
+    lo_d = (lo - c).tolist()
+    hi_d = (hi - c).tolist()
+    if h.size:
+        a += (G @ v).tolist()
+        lo_d += [-math.inf] * h.shape[0]
+        hi_d += (h - G @ c).tolist()
+    for ai, li, ui in zip(a, lo_d, hi_d, strict=True):
+        if ai > _SEG_EPS:
+            tmin = max(tmin, li / ai)
+            tmax = min(tmax, ui / ai)
+        elif ai < -_SEG_EPS:
+            tmin = max(tmin, ui / ai)
+            tmax = min(tmax, li / ai)
+        elif li > 1e-12 or ui < -1e-12:
+            return None
+    return (tmin, tmax) if tmin <= tmax else None
+
+
+_SEG_EPS = 1e-12  # a direction this small along a bound counts as parallel to it
+
+
+def _null_space(M: np.ndarray, tolerance: float) -> np.ndarray:
+    """An orthonormal basis (r, r − rank) of the null space of M (m, r): the right singular
+    vectors whose singular values are below ``tolerance · max(1, σ_max)``."""
+    r = M.shape[1]
+    if M.shape[0] == 0:
+        return np.eye(r)
+    _, s, vt, info = _dgesdd(M, compute_uv=1, full_matrices=1)
+    if info != 0:  # pragma: no cover - LAPACK's own failure: numpy's SVD (raises LinAlgError)
+        _, s, vt = np.linalg.svd(M, full_matrices=True)
+    tol = tolerance * max(1.0, float(s[0]) if s.size else 0.0)
+    rank = int(np.count_nonzero(s > tol))
+    return vt[rank:].T
+
+
+def _owned_result(qd, residuals, qps, freedom, lo, hi, box_active, rows_active, relaxed,
+                  backend) -> CascadeResult:
+    """The `CascadeResult` of the cascade's own fresh arrays, frozen in place rather than
+    copied (the box, which may be the bound cache's, is copied by `read_only`)."""
+    for a in (qd, residuals, qps, freedom, box_active, rows_active, relaxed):
+        a.setflags(write=False)
+    r = object.__new__(CascadeResult)
+    object.__setattr__(r, "__dict__", {"qd": qd, "residuals": residuals, "qps": qps, "freedom": freedom,
+                                       "lower": read_only(lo), "upper": read_only(hi),
+                                       "box_active": box_active, "rows_active": rows_active,
+                                       "relaxed": relaxed, "backend": backend})
+    return r

@@ -40,7 +40,17 @@ class Objective(Task):
         self.objective = objective
         self._built: dict[int, Any] = {}
 
+    def _row_count(self, chain: Chain, q: np.ndarray) -> int:
+        return chain.dof
+
     def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
+        n = chain.dof
+        A, b, e = np.empty((n, n)), np.empty(n), np.empty(n)
+        self._fill(chain, np.asarray(q, dtype=float), A, b, e)
+        return TaskRows(A=A, b=b, error=e)
+
+    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray) -> None:
+        """``A = I``, ``e = z(q)``, ``b = K z(q)``."""
         f = self._built.get(id(chain))
         if f is None:
             f = self._built[id(chain)] = _build(self.objective, chain)
@@ -49,7 +59,9 @@ class Objective(Task):
         if z.shape != (n,) or not np.all(np.isfinite(z)):
             raise InputError(f"the objective must return a finite ({n},) vector, got shape {z.shape}",
                              argument="objective", value=z)
-        return TaskRows(A=np.eye(n), b=self.gain * z, error=z)
+        A[...] = np.eye(n)
+        e[...] = z
+        np.multiply(z, self.gain, out=b)
 
 
 def _build(objective: Any, chain: Chain) -> Any:

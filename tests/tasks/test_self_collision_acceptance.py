@@ -125,8 +125,11 @@ def test_a_target_inside_the_arm_is_held_at_the_margin_and_reported(panda):
     assert cmd.status == "collision-avoidance"
     assert "holds back priority level(s) [0" in cmd.reason and " mm" in cmd.reason
     assert np.linalg.norm(cmd.solve.residuals[0]) > 0.01  # the tool is short of its target
-    # the tool is held there: over the last 0.5 s it slides along the margin (the posture
-    # level still moves what the tool leaves free) but comes no nearer its target
-    gap = np.linalg.norm(np.array(tips[-250:]) - np.array([0.0, 0.0, 0.25]), axis=1)
-    assert gap[-1] > gap[0] - 2e-3
+    # the tool is held outside link 1: the target is on its axis, and the tool stays further
+    # than 6 cm from it all along (a servo without avoidance reaches it; here it ends 7-8 cm
+    # away, beside link 1's hull). It may slide slowly along the margin (the posture level
+    # still moves what the tool leaves free: when it slides depends on rounding), but it is
+    # nearly still over the last 0.5 s
+    gap = np.linalg.norm(np.array(tips) - np.array([0.0, 0.0, 0.25]), axis=1)
+    assert gap.min() > 0.06
     assert np.linalg.norm(np.ptp(np.array(tips[-250:]), axis=0)) < 1e-2
