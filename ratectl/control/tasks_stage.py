@@ -111,16 +111,16 @@ class TasksStage:
         self.collision = collision
         self.cascade = cascade if cascade is not None else PriorityCascade()
         self._key: tuple | None = None  # the (priority, weight) of each task with a target
-        self._fills: list[tuple[Task, np.ndarray, np.ndarray, np.ndarray]] = []
+        # per task with a target: (index, task, its slices of A, b and the errors, √weight)
+        self._fills: list[tuple[int, Task, np.ndarray, np.ndarray, np.ndarray, float]] = []
         self._levels: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
-        self._errs: list[tuple[int, np.ndarray]] = []
         self._priorities: tuple[int, ...] = ()
         self._tool_e: np.ndarray | None = None
 
     def _layout(self, q: np.ndarray, key: tuple) -> None:
-        """Each level's arrays (A (m, n), b (m,), the errors (m,), √weights or None when all
-        are 1) and each task's slice of them; rebuilt when a task gains or loses its
-        target or changes priority or weight."""
+        """Each level's arrays (the weighted rows √w·A (m, n) and √w·b (m,), the errors (m,))
+        and each task's slice of them; rebuilt when a task gains or loses its target or
+        changes priority or weight."""
         chain = self.chain
         n = chain.dof
         by_priority: dict[int, list[tuple[int, Task, int]]] = {}
@@ -131,23 +131,20 @@ class TasksStage:
             raise InputError("no task has a target: call set_target on at least one task",
                              argument="tasks", value=self.tasks)
         self._priorities = tuple(sorted(by_priority))
-        self._fills, self._levels, self._errs, self._tool_e = [], [], [], None
+        self._fills, self._levels, self._tool_e = [], [], None
         for p in self._priorities:
             items = by_priority[p]
             m = sum(size for _, _, size in items)
             A, b, e = np.zeros((m, n)), np.zeros(m), np.zeros(m)
-            sw = np.ones(m)
             i = 0
             for k, t, size in items:
                 sl = slice(i, i + size)
-                self._fills.append((t, A[sl], b[sl], e[sl]))
-                self._errs.append((k, e[sl]))
-                sw[sl] = np.sqrt(t.weight)
+                self._fills.append((k, t, A[sl], b[sl], e[sl], math.sqrt(t.weight)))
                 if (self._tool_e is None and type(t).__name__ == "Pose"
                         and getattr(t, "link", None) is None):
                     self._tool_e = e[sl]
                 i += size
-            self._levels.append((A, b, None if bool(np.all(sw == 1.0)) else sw))
+            self._levels.append((A, b, None))  # the rows are written weighted (× √weight)
         self._key = key
 
     def tool_error(self) -> np.ndarray | None:
@@ -163,11 +160,9 @@ class TasksStage:
         key = tuple((t.priority, t.weight) if t.has_target else None for t in self.tasks)
         if key != self._key:
             self._layout(q, key)
-        for t, A_t, b_t, e_t in self._fills:
-            t._fill(chain, q, A_t, b_t, e_t)
         errs = [math.nan] * len(self.tasks)
-        for k, e_t in self._errs:
-            errs[k] = math.sqrt(e_t.dot(e_t))
+        for k, t, A_t, b_t, e_t, sw in self._fills:
+            errs[k] = t._fill(chain, q, A_t, b_t, e_t, sw)
         errors = np.array(errs)
         priorities = self._priorities
         levels = self._levels
@@ -199,7 +194,7 @@ class TasksStage:
             # held back = the level does worse than with the box alone (one more cascade,
             # only in the cycles where a damper row is active)
             free = self.cascade.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
-            scale = 1.0 + float(np.abs(levels[0][1]).max())
+            scale = 1.0 + float(np.abs(levels[0][1]).max())  # (the weighted b)
             blocked = [p for p, r, r0 in zip(priorities, res.residuals.tolist(), free.residuals.tolist(),
                                              strict=True) if r > r0 + 1e-6 * scale]
             if blocked:
@@ -209,7 +204,7 @@ class TasksStage:
                 reasons.append(f"collision avoidance holds back priority level(s) {blocked}: "
                                f"{act.size} damper row(s) active, closest {pairs[worst][0]} – "
                                f"{pairs[worst][1]} at {dist[worst] * 1e3:.3g} mm")
-        if res.relaxed.any():
+        if rows is not None and res.relaxed.any():
             flags.append("collision-avoidance")
             reasons.append(f"a collision damper could not be met within the joint limits this period "
                            f"(relaxed by up to {float(res.relaxed.max()):.3g} m/s)")

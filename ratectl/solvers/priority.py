@@ -168,6 +168,7 @@ class PriorityCascade:
         self.tolerance = _positive("tolerance", tolerance, allow_zero=True)
         self.margin = _positive("margin", margin, allow_zero=True)
         self._bcache: _BoundCache | None = None
+        self._eyes: dict[int, np.ndarray] = {}
 
     def __repr__(self) -> str:
         return f"PriorityCascade(backend={self.backend!r}, damping={self.damping!r})"
@@ -183,7 +184,7 @@ class PriorityCascade:
         if bc is None or bc.src is not limits or bc.dt != dt or bc.n != n:
             bc = self._bcache = _BoundCache(limits, Limits.of(limits, n), dt, self.margin)
         lo, hi, _ = _box(bc, q, qd_prev)
-        return np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+        return lo, hi
 
     # ------------------------------------------------------------------ solve
     def solve(self, levels: Sequence[Level | tuple], *, limits: Limits | Chain | None = None,
@@ -252,7 +253,7 @@ class PriorityCascade:
         one Cholesky (LAPACK ``dposv``) for the unconstrained answer; the box and the rows
         are tested on Python floats; the null space for the next level from one SVD of M
         (``dgesdd``), skipped after the last level."""
-        x = np.minimum(np.maximum(np.zeros(n), lo), hi)
+        x = np.minimum(np.maximum(lo, 0.0), hi)
         Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
         lam2 = self.damping**2
         nlev = len(lv)
@@ -276,7 +277,7 @@ class PriorityCascade:
             H = M.T @ M
             g = M.T @ rhs  # −f
             if lam2:
-                H.flat[:: r + 1] += lam2
+                H += self._lam2_eye(r)
                 g -= lam2 * (x if Z is None else Z.T @ x)
             z = _spd_solve(H, g)
             step = z if Z is None else Z @ z
@@ -328,13 +329,20 @@ class PriorityCascade:
             if sw is not None:
                 d *= sw
             res.append(math.sqrt(d.dot(d)))
-        tol = _ACT_TOL * np.maximum(np.abs(hi) + np.abs(lo), 1.0)
-        box_active = (x >= hi - tol) | (x <= lo + tol)
+        span = np.abs(hi) + np.abs(lo)
+        box_active = np.minimum(hi - x, x - lo) <= _ACT_TOL * np.maximum(span, 1.0, out=span)
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else np.zeros(0, dtype=bool)
         return _owned_result(x, np.array(res), np.array(qps), np.array(freedom), lo, hi, box_active,
                              rows_active, relaxed, self.backend)
 
     # ------------------------------------------------------------------ pieces
+    def _lam2_eye(self, r: int) -> np.ndarray:
+        """λ²I (r, r), kept per size."""
+        e = self._eyes.get(r)
+        if e is None:
+            e = self._eyes[r] = self.damping**2 * np.eye(r)
+        return e
+
     @staticmethod
     def _level(L, k):
         if isinstance(L, Level):
@@ -486,6 +494,9 @@ def _null_space(M: np.ndarray, tolerance: float) -> np.ndarray:
     r = M.shape[1]
     if M.shape[0] == 0:
         return np.eye(r)
+    if r == 1:  # one column: its norm is its one singular value
+        s1 = math.sqrt(float(M[:, 0].dot(M[:, 0])))
+        return np.ones((1, 0 if s1 > tolerance * max(1.0, s1) else 1))
     _, s, vt, info = _dgesdd(M, compute_uv=1, full_matrices=1)
     if info != 0:  # pragma: no cover - LAPACK's own failure: numpy's SVD (raises LinAlgError)
         _, s, vt = np.linalg.svd(M, full_matrices=True)

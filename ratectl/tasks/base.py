@@ -4,6 +4,7 @@ a link's frame."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -81,17 +82,21 @@ class Task:
             return self.size
         return int(self.rows(chain, q).b.shape[0])
 
-    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray) -> None:
-        """Write the rows at ``q`` (finite, (n,) float64) into ``A`` (m, n), ``b`` (m,) and
-        the error into ``e`` (m,), m = `_row_count`."""
+    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
+              s: float) -> float:
+        """Write the rows at ``q`` (finite, (n,) float64) scaled by ``s`` (√weight) into ``A``
+        (m, n) and ``b`` (m,), and the error into ``e`` (m,), m = `_row_count`; returns ‖e‖."""
         r = self.rows(chain, q)
         if r.b.shape != b.shape or r.A.shape != A.shape or r.error.shape != e.shape:
             raise InputError(f"{self!r}: rows() gave {r.A.shape[0]} rows, {b.shape[0]} expected "
                              f"(a task's number of rows may not change between cycles)",
                              argument="tasks", value=self)
-        A[...] = r.A
-        b[...] = r.b
+        if not (np.all(np.isfinite(r.A)) and np.all(np.isfinite(r.b))):
+            raise InputError(f"{self!r}: rows() gave non-finite A or b", argument="tasks", value=self)
+        np.multiply(r.A, s, out=A)
+        np.multiply(r.b, s, out=b)
         e[...] = r.error
+        return math.sqrt(float(e.dot(e)))
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(priority={self.priority}, weight={self.weight:g}, gain={self.gain:g})"
@@ -148,7 +153,8 @@ class FrameTask(Task):
         self.link = link
         self._target: np.ndarray | None = None
         self._twist = np.zeros(6)
-        self._e = np.empty(6)  # the pose error of the last fill
+        self._has_twist = False
+        self._e = np.empty(6)  # the pose error of the last fill (Position, Orientation)
 
     @property
     def has_target(self) -> bool:
@@ -164,6 +170,7 @@ class FrameTask(Task):
         self._twist = np.zeros(6)
         if twist is not None:
             self._twist[self._rows] = twist
+        self._has_twist = twist is not None
 
     def frame(self, chain: Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(pose (4, 4), Jacobian (6, n)) of the task's frame at q."""
@@ -173,21 +180,30 @@ class FrameTask(Task):
         """``A = J[rows]``, ``b = ξ_ff[rows] + K · e[rows]`` with ``e`` the pose error."""
         m = self._row_count(chain, q)
         A, b, e = np.empty((m, chain.dof)), np.empty(m), np.empty(m)
-        self._fill(chain, np.asarray(q, dtype=float), A, b, e)
+        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
         return TaskRows(A=A, b=b, error=e)
 
-    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray) -> None:
+    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
+              s: float) -> float:
         if self._target is None:
             raise InputError(f"{self!r} has no target: call set_target first", argument="target",
                              value=None)
         T, J = self.frame(chain, q)
-        e6 = self._e
-        pose_error_into(e6, self._target, T)
         r = self._rows
-        A[...] = J[r]
-        np.multiply(e6[r], self.gain, out=b)
-        b += self._twist[r]
-        e[...] = e6[r]
+        if r.start == 0 and r.stop == 6:  # the full pose: the error straight into e
+            ep, th = pose_error_into(e, self._target, T)
+            norm = math.sqrt(ep * ep + th * th)
+            np.multiply(e, self.gain * s, out=b)
+        else:
+            e6 = self._e
+            ep, th = pose_error_into(e6, self._target, T)
+            norm = ep if r.start == 0 else th
+            e[...] = e6[r]
+            np.multiply(e, self.gain * s, out=b)
+        np.multiply(J[r], s, out=A)
+        if self._has_twist:
+            b += s * self._twist[r]
+        return norm
 
     def __repr__(self) -> str:
         link = "tool" if self.link is None else repr(self.link)

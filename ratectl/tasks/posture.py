@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -35,6 +36,7 @@ class Posture(Task):
         self._q_ref = None if q_ref is None else check_vector(q_ref, int(np.size(q_ref)), "q_ref",
                                                                "[rad or m]")
         self._joints = None if joints is None else np.asarray(joints, dtype=int).ravel()
+        self._A: tuple[tuple[int, float], np.ndarray] | None = None  # the scaled rows of I, kept
 
     @property
     def has_target(self) -> bool:
@@ -70,17 +72,23 @@ class Posture(Task):
     def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
         m = self._row_count(chain, q)
         A, b, e = np.empty((m, chain.dof)), np.empty(m), np.empty(m)
-        self._fill(chain, np.asarray(q, dtype=float), A, b, e)
+        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
         return TaskRows(A=A, b=b, error=e)
 
-    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray) -> None:
-        """``A = I`` (the rows of ``joints``), ``e = q_ref − q``, ``b = K e``."""
+    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
+              s: float) -> float:
+        """``A = I`` (the rows of ``joints``), ``e = q_ref − q``, ``b = K e`` (scaled by s)."""
         q_ref = self._checked(chain)
         j = self._joints
+        n = chain.dof
         if j is None:
             np.subtract(q_ref, q, out=e)
-            A[...] = np.eye(chain.dof)
         else:
             e[...] = q_ref[j] - q[j]
-            A[...] = np.eye(chain.dof)[j]
-        np.multiply(e, self.gain, out=b)
+        np.multiply(e, self.gain * s, out=b)
+        key = (n, s)
+        if self._A is None or self._A[0] != key:
+            rows = np.eye(n) * s
+            self._A = (key, rows if j is None else rows[j])
+        A[...] = self._A[1]
+        return math.sqrt(float(e.dot(e)))
