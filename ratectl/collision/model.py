@@ -218,10 +218,11 @@ class CollisionModel:
         # below for the pairs computed now)
         self._d0, self._R0, self._c0 = lb, R.copy(), c
         d0 = lb
-        jac: dict[str, np.ndarray] = {}
         tf: dict[int, Any] = {}
         req, res = self._req, self._res
-        G, h, dist, names = [], [], [], []
+        # per row: the signed distance, the pair, and for each side (its link, the witness
+        # point, ±n̂); the rows are assembled for all pairs at once after the loop
+        dist, names, wit, side_link = [], [], [], []
         closest, closest_pair = np.inf, None
         for k in near.tolist():
             i, j = self.pairs[k]
@@ -240,25 +241,39 @@ class CollisionModel:
             if d >= di:
                 continue
             nx, ny, nz = res.normal
-            nrm = np.array((nx, ny, nz))
-            row = np.zeros(n)
-            for s, p, sign in ((a, res.getNearestPoint1(), -1.0), (b, res.getNearestPoint2(), 1.0)):
-                if s.link is None:
-                    continue
-                J = jac.get(s.link)
-                if J is None:
-                    J = jac[s.link] = chain.jacobian(q, link=s.link)
-                # n̂ᵀ J_v(p) with J_v(p) = J_v(o) − [p − o]× J_ω: n̂ᵀJ_v(o) + ((p − o) × n̂)ᵀ J_ω
-                o = poses[s.link]
-                rx, ry, rz = p[0] - o[0, 3], p[1] - o[1, 3], p[2] - o[2, 3]
-                rxn = np.array((ry * nz - rz * ny, rz * nx - rx * nz, rx * ny - ry * nx))
-                row += sign * (nrm @ J[:3] + rxn @ J[3:])
-            G.append(-row)  # −ḋ ≤ ξ (d − d_s)/(d_i − d_s)
-            h.append(xi * (d - ds) / (di - ds))
+            p1, p2 = res.getNearestPoint1(), res.getNearestPoint2()
+            wit.append((p1[0], p1[1], p1[2], -nx, -ny, -nz))
+            wit.append((p2[0], p2[1], p2[2], nx, ny, nz))
+            side_link += [a.link, b.link]
             dist.append(d)
             names.append((a.name, b.name))
-        return CollisionRows(G=np.array(G).reshape(-1, n), h=np.array(h), distance=np.array(dist),
-                             pairs=tuple(names), closest=float(closest), closest_pair=closest_pair)
+        m = len(dist)
+        if not m:
+            return CollisionRows(G=np.zeros((0, n)), h=np.zeros(0), distance=np.zeros(0), pairs=(),
+                                 closest=float(closest), closest_pair=closest_pair)
+        # ḋ = Σ over the two sides of ±n̂ᵀ J_v(p) q̇, with J_v(p) = J_v(o) − [p − o]× J_ω:
+        # ±(n̂ᵀ J_v(o) + ((p − o) × n̂)ᵀ J_ω) = w ᵀ J (w = [±n̂; (p − o) × ±n̂], 6 numbers)
+        used = [lk for lk in dict.fromkeys(side_link) if lk is not None]
+        slot = {lk: k for k, lk in enumerate(used)}
+        Js = np.zeros((len(used) + 1, 6, n))  # the last: an obstacle (no motion)
+        Os = np.zeros((len(used) + 1, 3))
+        for k, lk in enumerate(used):
+            Js[k] = chain.jacobian(q, link=lk)
+            Os[k] = poses[lk][:3, 3]
+        idx = np.array([len(used) if lk is None else slot[lk] for lk in side_link])
+        w = np.array(wit)  # (2m, 6): the witness point, ±n̂
+        r = w[:, :3] - Os[idx]
+        nv = w[:, 3:].copy()
+        w[:, :3] = nv
+        w[:, 3] = r[:, 1] * nv[:, 2] - r[:, 2] * nv[:, 1]
+        w[:, 4] = r[:, 2] * nv[:, 0] - r[:, 0] * nv[:, 2]
+        w[:, 5] = r[:, 0] * nv[:, 1] - r[:, 1] * nv[:, 0]
+        rows2 = np.matmul(w[:, None, :], Js[idx])[:, 0, :]  # (2m, n)
+        G = -(rows2[0::2] + rows2[1::2])  # −ḋ ≤ ξ (d − d_s)/(d_i − d_s)
+        distance = np.array(dist)
+        h = xi * (distance - ds) / (di - ds)
+        return CollisionRows(G=G, h=h, distance=distance, pairs=tuple(names), closest=float(closest),
+                             closest_pair=closest_pair)
 
     def __repr__(self) -> str:
         return (f"{type(self).__name__}({self.chain.name!r}, {len(self.shapes)} shapes, {len(self.pairs)} "
