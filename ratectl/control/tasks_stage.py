@@ -19,7 +19,6 @@ import numpy as np
 from ..arrays import read_only
 from ..errors import InputError, SolverError
 from ..solvers.priority import CascadeResult, PriorityCascade
-from ..solvers.qp.bounds import joint_velocity_bounds
 from ..tasks.base import Task
 
 if TYPE_CHECKING:
@@ -210,8 +209,7 @@ class TasksStage:
                            f"(relaxed by up to {float(res.relaxed.max()):.3g} m/s)")
         active: tuple[str, ...] = ()
         if res.box_active.any() and limits is not None:
-            vb = joint_velocity_bounds(limits, q=q, qd_prev=qd_prev, dt=dt, margin=self.cascade.margin,
-                                       n=chain.dof)
+            vb = self.cascade.bounds(chain.dof, limits, q, qd_prev, dt)
             by_kind: dict[str, list[str]] = {}
             for j in np.flatnonzero(res.box_active).tolist():
                 up = abs(res.qd[j] - vb.upper[j]) <= abs(res.qd[j] - vb.lower[j])

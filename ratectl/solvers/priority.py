@@ -45,7 +45,7 @@ from ..errors import InputError, SolverError
 from ..model.limits import Limits
 from .base import _positive
 from .qp.active_set import qp_via_dual
-from .qp.bounds import _BIG, _BoundCache, _box, _vec
+from .qp.bounds import _BIG, VelocityBounds, _BoundCache, _bounds, _box, _vec
 
 _dposv = _lapack.dposv
 _dgesdd = _lapack.dgesdd
@@ -180,11 +180,23 @@ class PriorityCascade:
         ±1e15 where a side is absent)."""
         if limits is None:
             return np.full(n, -_BIG), np.full(n, _BIG)
+        lo, hi, _ = _box(self._cache(n, limits, dt), q, qd_prev)
+        return lo, hi
+
+    def bounds(self, n: int, limits: Limits | Chain, q: np.ndarray | None, qd_prev: np.ndarray | None,
+               dt: float | None) -> VelocityBounds:
+        """`box` with the kind of limit behind every bound: `joint_velocity_bounds` of this
+        cascade's limits and margin, on the arithmetic it keeps between steps (arguments as
+        `solve_validated`'s)."""
+        lo, hi, slo, shi, conflicts = _bounds(self._cache(n, limits, dt), q, qd_prev, True)
+        return VelocityBounds(lower=np.array(lo, dtype=float), upper=np.array(hi, dtype=float),
+                              source_lower=slo, source_upper=shi, conflicts=conflicts)
+
+    def _cache(self, n: int, limits: Limits | Chain, dt: float | None) -> _BoundCache:
         bc = self._bcache
         if bc is None or bc.src is not limits or bc.dt != dt or bc.n != n:
             bc = self._bcache = _BoundCache(limits, Limits.of(limits, n), dt, self.margin)
-        lo, hi, _ = _box(bc, q, qd_prev)
-        return lo, hi
+        return bc
 
     # ------------------------------------------------------------------ solve
     def solve(self, levels: Sequence[Level | tuple], *, limits: Limits | Chain | None = None,
