@@ -266,6 +266,7 @@ class PriorityCascade:
         are tested on Python floats; the null space for the next level from one SVD of M
         (``dgesdd``), skipped after the last level."""
         x = np.minimum(np.maximum(lo, 0.0), hi)
+        x_zero = not x.any()  # (the box holds q̇ = 0: level 0 starts from zero)
         Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
         lam2 = self.damping**2
         nlev = len(lv)
@@ -282,15 +283,16 @@ class PriorityCascade:
                 continue
             Mw = A if sw is None else sw[:, None] * A
             M = Mw if Z is None else Mw @ Z
-            rhs = b - A @ x
+            rhs = b if x_zero else b - A @ x
             if sw is not None:
-                rhs *= sw
+                rhs = rhs * sw
             # min ½‖M z − rhs‖² + ½λ²‖x + Z z‖²: H z = −f
             H = M.T @ M
             g = M.T @ rhs  # −f
             if lam2:
                 H += self._lam2_eye(r)
-                g -= lam2 * (x if Z is None else Z.T @ x)
+                if not x_zero:
+                    g -= lam2 * (x if Z is None else Z.T @ x)
             z = _spd_solve(H, g)
             step = z if Z is None else Z @ z
             cand = x + step
@@ -329,6 +331,7 @@ class PriorityCascade:
                     step = z if Z is None else Z @ z
                     cand = x + step
             x = cand
+            x_zero = False
             # what the next levels may still change: the null space of this level's rows
             if k + 1 < nlev:
                 if V is None:
