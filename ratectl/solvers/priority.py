@@ -20,8 +20,13 @@ makes the constraints degenerate. The cascade stops when no freedom is left.
 
 Each level first tries the unconstrained minimiser (the null-space projection
 ``z = −H⁻¹f``): when it satisfies the box and the rows no QP is solved (that is
-null-space projection exactly, where no inequality is active); otherwise the backend
-solves the level's QP. When the box and the rows G q̇ ≤ h have no common point (a
+null-space projection exactly, where no inequality is active). Otherwise two cases have a
+closed form: a level with one free direction (a QP in one unknown) takes its minimiser
+clipped to the interval the box and the rows leave on that line; a level with lower levels
+after it whose minimisers form a line (its rows leave one direction unseen) takes the point
+of that line of least norm (the damping's choice) inside the box and the rows, when the line
+crosses them — the lower levels then move along it anyway. Anything else goes to the
+backend, which solves the level's QP. When the box and the rows G q̇ ≤ h have no common point (a
 collision damper that the acceleration limit cannot honour this period), the rows are
 first relaxed by the least-squares slack s ≥ 0 (G q̇ ≤ h + s) that makes them feasible,
 and the result says so (``relaxed``).
