@@ -248,6 +248,10 @@ class PriorityCascade:
         ``(G (k, n), h (k,))`` float64 with k ≥ 1, or None. The answer is `solve`'s."""
         n = levels[0][0].shape[1]
         lo, hi = self.box(n, limits, q, qd_prev, dt)
+        bc = self._bcache
+        for a in (lo, hi):  # the step's own box is frozen in place for the result (not copied)
+            if bc is None or (a is not bc.vmax and a is not bc.nvmax):
+                a.setflags(write=False)
         if extra_inequalities is None:
             G, h = np.zeros((0, n)), np.zeros(0)
         else:
@@ -266,82 +270,62 @@ class PriorityCascade:
         stands in for the first level's QP if its backend finds no point (a relaxed problem
         on the edge of its tolerance).
 
-        Per level: ``H = MᵀM + λ²I`` (M the weighted rows in the free directions) solved by
-        one Cholesky (LAPACK ``dposv``) for the unconstrained answer; the box and the rows
-        are tested on Python floats; the null space for the next level from one SVD of M
-        (``dgesdd``), skipped after the last level."""
-        x = np.minimum(np.maximum(lo, 0.0), hi)
-        x_zero = not x.any()  # (the box holds q̇ = 0: level 0 starts from zero)
-        Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
-        lam2 = self.damping**2
-        nlev = len(lv)
-        qps = [False] * nlev
-        freedom = [0] * nlev
-        have_rows = h.size > 0
+        First every level's unconstrained minimiser, each in the null space of the levels
+        above (null-space projection): when the final q̇ satisfies the box and the rows it
+        is the answer — each level's optimum over its free directions lies inside them, so
+        no inequality is active at any level. Otherwise the levels again, each one's answer
+        tested against the box and the rows (`_solve_level`). Per level: ``H = MᵀM + λ²I`` (M
+        the weighted rows in the free directions) solved by one Cholesky (LAPACK
+        ``dposv``); the null space for the next level from one SVD of M (``dgesdd``),
+        skipped after the last level. Neither depends on q̇, so the second pass reuses them."""
         lo_l = (lo - 1e-12).tolist()
         hi_l = (hi + 1e-12).tolist()
+        x_zero = max(lo_l) <= -1e-12 and min(hi_l) >= 1e-12  # the box holds q̇ = 0
+        x0 = np.zeros(n) if x_zero else np.minimum(np.maximum(lo, 0.0), hi)
+        lam2 = self.damping**2
+        nlev = len(lv)
+        have_rows = h.size > 0
         h_tol = h + 1e-12 * (1.0 + np.abs(h)) if have_rows else h
+        # pass 1: null-space projection; each level's (Z, M, H, V) kept
+        Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
+        parts: list[tuple | None] = []
+        freedom = [0] * nlev
+        x = x0
+        start_zero = x_zero
         for k, (A, b, sw) in enumerate(lv):
             r = n if Z is None else Z.shape[1]
             freedom[k] = r
             if r == 0:
+                parts.append(None)
                 continue
             Mw = A if sw is None else sw[:, None] * A
             M = Mw if Z is None else Mw @ Z
-            rhs = b if x_zero else b - A @ x
-            if sw is not None:
-                rhs = rhs * sw
-            # min ½‖M z − rhs‖² + ½λ²‖x + Z z‖²: H z = −f
             H = M.T @ M
-            g = M.T @ rhs  # −f
             if lam2:
                 H += self._lam2_eye(r)
-                if not x_zero:
-                    g -= lam2 * (x if Z is None else Z.T @ x)
-            z = _spd_solve(H, g)
-            step = z if Z is None else Z @ z
-            cand = x + step
-            cl = cand.tolist()
-            ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
-            if ok and have_rows:
-                ok = bool((G @ cand <= h_tol).all())
-            V = None
-            if not ok:
-                qps[k] = True
-                seg = None
-                if r == 1:
-                    # a QP in one unknown: its unconstrained minimiser clipped to the interval
-                    # the box and the rows leave along the one free direction
-                    v = Z[:, 0] if Z is not None else np.ones(1)
-                    seg = _segment(x, v, lo, hi, G, h)
-                    if seg is not None:
-                        cand = x + v * min(max(float(z[0]), seg[0]), seg[1])
-                elif k + 1 < nlev:
-                    V = _null_space(M, self.tolerance)
-                    if V.shape[1] == 1:
-                        # the level's minimisers are a line through cand (its rows do not see
-                        # the direction v): where the line crosses the box and the rows, its
-                        # point of least norm (the damping's choice) is the level's answer
-                        v = V[:, 0] if Z is None else Z @ V[:, 0]
-                        seg = _segment(cand, v, lo, hi, G, h)
-                        if seg is not None:
-                            cand = cand + v * min(max(-float(v @ cand), seg[0]), seg[1])
-                if seg is None:
-                    try:
-                        z = self._level_qp(H, -g, x, Z, lo, hi, G, h, n, r)
-                    except _Infeasible:
-                        if fallback is None:
-                            raise
-                        z = fallback - x
-                    step = z if Z is None else Z @ z
-                    cand = x + step
-            x = cand
-            x_zero = False
-            # what the next levels may still change: the null space of this level's rows
-            if k + 1 < nlev:
-                if V is None:
-                    V = _null_space(M, self.tolerance)
+            V = _null_space(M, self.tolerance) if k + 1 < nlev else None
+            parts.append((Z, M, H, V))
+            z = _spd_solve(H, self._gradient(A, b, sw, M, Z, x, start_zero, lam2))
+            x = x + (z if Z is None else Z @ z)
+            start_zero = False
+            if V is not None:
                 Z = V if Z is None else Z @ V
+        cl = x.tolist()
+        ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
+        if ok and have_rows:
+            ok = bool((G @ x <= h_tol).all())
+        qps = [False] * nlev
+        if not ok:
+            # pass 2: each level's answer within the box and the rows
+            x = x0
+            start_zero = x_zero
+            for k, (A, b, sw) in enumerate(lv):
+                part = parts[k]
+                if part is None:
+                    continue
+                x, qps[k] = self._solve_level(A, b, sw, part, x, start_zero, lam2, k + 1 < nlev, lo, hi,
+                                              lo_l, hi_l, G, h, h_tol, n, fallback)
+                start_zero = False
         x = np.minimum(np.maximum(x, lo), hi)
         res = []
         for A, b, sw in lv:
@@ -354,6 +338,60 @@ class PriorityCascade:
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else np.zeros(0, dtype=bool)
         return _owned_result(x, np.array(res), np.array(qps), np.array(freedom), lo, hi, box_active,
                              rows_active, relaxed, self.backend)
+
+    @staticmethod
+    def _gradient(A, b, sw, M, Z, x, x_zero, lam2) -> np.ndarray:
+        """−f of a level at the answer so far x: ``Mᵀ W^{1/2}(b − A x) − λ² Zᵀx``."""
+        rhs = b if x_zero else b - A @ x
+        if sw is not None:
+            rhs = rhs * sw
+        g = M.T @ rhs
+        if lam2 and not x_zero:
+            g -= lam2 * (x if Z is None else Z.T @ x)
+        return g
+
+    def _solve_level(self, A, b, sw, part, x, x_zero, lam2, more, lo, hi, lo_l, hi_l, G, h, h_tol, n,
+               fallback) -> tuple[np.ndarray, bool]:
+        """One level of the second pass from the answer so far x: ``(x', a QP was needed)``.
+
+        The unconstrained minimiser when it satisfies the box and the rows; else a level
+        with one free direction takes its minimiser clipped to the interval left on that
+        line, a level with ``more`` levels after it whose minimisers form a line (V has one
+        column) takes the line's least-norm point inside the box and the rows, and anything
+        else the backend's QP."""
+        Z, M, H, V = part
+        r = H.shape[0]
+        g = self._gradient(A, b, sw, M, Z, x, x_zero, lam2)
+        z = _spd_solve(H, g)
+        cand = x + (z if Z is None else Z @ z)
+        cl = cand.tolist()
+        ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
+        if ok and h.size:
+            ok = bool((G @ cand <= h_tol).all())
+        if ok:
+            return cand, False
+        if r == 1:
+            # a QP in one unknown: its unconstrained minimiser clipped to the interval the box
+            # and the rows leave along the one free direction
+            v = Z[:, 0] if Z is not None else np.ones(1)
+            seg = _segment(x, v, lo, hi, G, h)
+            if seg is not None:
+                return x + v * min(max(float(z[0]), seg[0]), seg[1]), True
+        elif more and V is not None and V.shape[1] == 1:
+            # the level's minimisers are a line through cand (its rows do not see the
+            # direction v): where the line crosses the box and the rows, its point of least
+            # norm (the damping's choice) is the level's answer
+            v = V[:, 0] if Z is None else Z @ V[:, 0]
+            seg = _segment(cand, v, lo, hi, G, h)
+            if seg is not None:
+                return cand + v * min(max(-float(v @ cand), seg[0]), seg[1]), True
+        try:
+            z = self._level_qp(H, -g, x, Z, lo, hi, G, h, n, r)
+        except _Infeasible:
+            if fallback is None:
+                raise
+            z = fallback - x
+        return x + (z if Z is None else Z @ z), True
 
     # ------------------------------------------------------------------ pieces
     def _lam2_eye(self, r: int) -> np.ndarray:
