@@ -109,7 +109,7 @@ class TasksStage:
         self.tasks = tasks
         self.collision = collision
         self.cascade = cascade if cascade is not None else PriorityCascade()
-        self._key: list | None = None  # the (priority, weight) of each task with a target
+        self._key: list | None = None  # (priority, weight, rows) of each task with a target
         # per task with a target: (index, task, its slices of A, b and the errors, √weight)
         self._fills: list[tuple[int, Task, np.ndarray, np.ndarray, np.ndarray, float]] = []
         self._levels: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
@@ -119,13 +119,13 @@ class TasksStage:
     def _layout(self, q: np.ndarray, key: list) -> None:
         """Each level's arrays (the weighted rows √w·A (m, n) and √w·b (m,), the errors (m,))
         and each task's slice of them; rebuilt when a task gains or loses its target or
-        changes priority or weight."""
+        changes priority, weight or number of rows."""
         chain = self.chain
         n = chain.dof
         by_priority: dict[int, list[tuple[int, Task, int]]] = {}
         for k, t in enumerate(self.tasks):
             if key[k] is not None:
-                by_priority.setdefault(t.priority, []).append((k, t, t._row_count(chain, q)))
+                by_priority.setdefault(t.priority, []).append((k, t, key[k][2]))
         if not by_priority:
             raise InputError("no task has a target: call set_target on at least one task",
                              argument="tasks", value=self.tasks)
@@ -156,7 +156,8 @@ class TasksStage:
         """q̇ for this cycle (see the module docstring). ``q`` finite (n,) float64 and ``dt``
         > 0, as the controller's gate passes them."""
         chain = self.chain
-        key = [(t.priority, t.weight) if t.has_target else None for t in self.tasks]
+        key = [(t.priority, t.weight, t._row_count(chain, q)) if t.has_target else None
+               for t in self.tasks]
         if key != self._key:
             self._layout(q, key)
         errs = [math.nan] * len(self.tasks)

@@ -77,7 +77,8 @@ class Task:
     # (no `TaskRows` per task and cycle). The built-in tasks implement `_fill` and build
     # `rows` on it; a subclass that implements `rows` alone works through these defaults.
     def _row_count(self, chain: Chain, q: np.ndarray) -> int:
-        """How many rows the task has on ``chain``."""
+        """How many rows the task has on ``chain`` at ``q`` (asked every cycle: cheap for the
+        built-in tasks, one `rows` call for a task that implements `rows` alone)."""
         if self.size is not None:
             return self.size
         return int(self.rows(chain, q).b.shape[0])

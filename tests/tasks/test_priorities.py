@@ -147,3 +147,29 @@ def test_rows_relaxed_to_a_corner_of_the_box_still_give_a_command(seed, backend)
     assert res.relaxed[0] == pytest.approx(0.05, abs=1e-6)
     assert np.all(G @ res.qd <= h + res.relaxed + 1e-9)
     np.testing.assert_allclose(res.qd, corner, atol=1e-4)
+
+
+class _HoldJoints(rc.tasks.Task):
+    """A task that implements rows() alone: hold the first ``m`` joints still (m may change)."""
+
+    def __init__(self) -> None:
+        super().__init__(priority=0)
+        self.m = 2
+
+    def rows(self, chain, q):
+        return rc.tasks.TaskRows(A=np.eye(chain.dof)[: self.m], b=np.zeros(self.m), error=np.zeros(self.m))
+
+
+def test_a_task_with_rows_alone_is_solved_and_may_change_its_number_of_rows():
+    ch = rc.robots.panda()
+    q = 0.5 * (ch.qlim[:, 0] + ch.qlim[:, 1])
+    hold = _HoldJoints()
+    ctrl = rc.ResolvedRateController(ch, tasks=[hold, rc.tasks.Posture(q + 0.3, priority=1, gain=0.01)])
+    cmd = ctrl.step(q, dt=1e-3)
+    assert cmd.status != "halted", cmd.reason
+    assert np.abs(cmd.qd[:2]).max() < 1e-12 < np.abs(cmd.qd[2:]).min()  # held; the rest moves
+    hold.m = 4
+    cmd = ctrl.step(q, dt=1e-3)
+    assert cmd.status != "halted", cmd.reason
+    assert np.abs(cmd.qd[:4]).max() < 1e-12 < np.abs(cmd.qd[4:]).min()
+    np.testing.assert_allclose(cmd.solve.task_errors, [0.0, np.linalg.norm(0.3 * np.ones(7))])
