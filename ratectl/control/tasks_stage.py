@@ -27,9 +27,6 @@ if TYPE_CHECKING:
 
 __all__ = ["TasksStage", "TasksResult"]
 
-_KINDS = {1: "velocity", 2: "position", 3: "acceleration"}
-
-
 @dataclass(frozen=True, kw_only=True)
 class TasksResult:
     """What one `TasksStage.solve` gives (``Command.solve`` of a tasks cycle).
@@ -209,14 +206,10 @@ class TasksStage:
             reasons.append(f"a collision damper could not be met within the joint limits this period "
                            f"(relaxed by up to {float(res.relaxed.max()):.3g} m/s)")
         active: tuple[str, ...] = ()
-        if res.box_active.any() and limits is not None:
-            vb = self.cascade.bounds(chain.dof, limits, q, qd_prev, dt)
+        if limits is not None and res.box_active.any():
             by_kind: dict[str, list[str]] = {}
-            for j in np.flatnonzero(res.box_active).tolist():
-                up = abs(res.qd[j] - vb.upper[j]) <= abs(res.qd[j] - vb.lower[j])
-                src = int(vb.source_upper[j] if up else vb.source_lower[j])
-                if src in _KINDS:
-                    by_kind.setdefault(_KINDS[src], []).append(chain.joint_names[j])
+            for j, kind in self.cascade.limit_kinds(res, qd_prev):
+                by_kind.setdefault(kind, []).append(chain.joint_names[j])
             active = tuple(k for k in ("velocity", "position", "acceleration") if k in by_kind)
             for kind, flag in (("position", "joint-limit"), ("velocity", "velocity-scaled"),
                                ("acceleration", "acceleration-limited")):

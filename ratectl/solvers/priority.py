@@ -50,7 +50,7 @@ from ..errors import InputError, SolverError
 from ..model.limits import Limits
 from .base import _positive
 from .qp.active_set import qp_via_dual
-from .qp.bounds import _BIG, VelocityBounds, _BoundCache, _bounds, _box, _vec
+from .qp.bounds import _BIG, _BoundCache, _box, _vec
 
 _dposv = _lapack.dposv
 _dgesdd = _lapack.dgesdd
@@ -188,14 +188,27 @@ class PriorityCascade:
         lo, hi, _ = _box(self._cache(n, limits, dt), q, qd_prev)
         return lo, hi
 
-    def bounds(self, n: int, limits: Limits | Chain, q: np.ndarray | None, qd_prev: np.ndarray | None,
-               dt: float | None) -> VelocityBounds:
-        """`box` with the kind of limit behind every bound: `joint_velocity_bounds` of this
-        cascade's limits and margin, on the arithmetic it keeps between steps (arguments as
-        `solve_validated`'s)."""
-        lo, hi, slo, shi, conflicts = _bounds(self._cache(n, limits, dt), q, qd_prev, True)
-        return VelocityBounds(lower=np.array(lo, dtype=float), upper=np.array(hi, dtype=float),
-                              source_lower=slo, source_upper=shi, conflicts=conflicts)
+    def limit_kinds(self, res: CascadeResult, qd_prev: np.ndarray | None) -> list[tuple[int, str]]:
+        """``(joint, kind)`` for each joint on a face of the box of ``res`` (the last solve's,
+        with its ``qd_prev``): ``"velocity"`` where the face is ±vmax, ``"acceleration"``
+        where it is q̇_prev ± amax·dt, else ``"position"`` (the box holds exact copies of
+        these bounds, as `joint_velocity_bounds` reports its sources)."""
+        bc = self._bcache
+        if bc is None or not res.box_active.any():
+            return []
+        qd, lo, hi = res.qd.tolist(), res.lower.tolist(), res.upper.tolist()
+        vmax, adt = bc.vmax_l, bc.amax_dt_l
+        qp = qd_prev.tolist() if qd_prev is not None and bc.has_acc and adt is not None else None
+        out = []
+        for j in np.flatnonzero(res.box_active).tolist():
+            v, sign = (hi[j], 1.0) if abs(qd[j] - hi[j]) <= abs(qd[j] - lo[j]) else (lo[j], -1.0)
+            if v == sign * vmax[j]:
+                out.append((j, "velocity"))
+            elif qp is not None and adt is not None and v == qp[j] + sign * adt[j]:
+                out.append((j, "acceleration"))
+            else:
+                out.append((j, "position"))
+        return out
 
     def _cache(self, n: int, limits: Limits | Chain, dt: float | None) -> _BoundCache:
         bc = self._bcache
