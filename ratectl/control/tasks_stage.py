@@ -190,10 +190,10 @@ class TasksStage:
         if rows is not None and res.rows_active.any():
             # held back = the level does worse than with the box alone (one more cascade,
             # only in the cycles where a damper row is active)
-            free = self.cascade.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
+            free = self.cascade.residuals_without_rows(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
             scale = 1.0 + float(np.abs(levels[0][1]).max())  # (the weighted b)
-            blocked = [p for p, r, r0 in zip(priorities, res.residuals.tolist(), free.residuals.tolist(),
-                                             strict=True) if r > r0 + 1e-6 * scale]
+            blocked = [p for p, r, r0 in zip(priorities, res.residuals.tolist(), free.tolist(), strict=True)
+                       if r > r0 + 1e-6 * scale]
             if blocked:
                 act = np.flatnonzero(res.rows_active)
                 worst = int(act[np.argmin(np.asarray(dist)[act])])

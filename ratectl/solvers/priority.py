@@ -174,6 +174,7 @@ class PriorityCascade:
         self.margin = _positive("margin", margin, allow_zero=True)
         self._bcache: _BoundCache | None = None
         self._eyes: dict[int, np.ndarray] = {}
+        self._projection: np.ndarray | None = None  # the last null-space projection within the box
 
     def __repr__(self) -> str:
         return f"PriorityCascade(backend={self.backend!r}, damping={self.damping!r})"
@@ -325,6 +326,7 @@ class PriorityCascade:
                 Z = V if Z is None else Z @ V
         cl = x.tolist()
         ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
+        self._projection = x if ok else None  # (within the box: the answer without the rows)
         if ok and have_rows:
             ok = bool((G @ x <= h_tol).all())
         qps = [False] * nlev
@@ -351,6 +353,25 @@ class PriorityCascade:
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else np.zeros(0, dtype=bool)
         return _owned_result(x, np.array(res), np.array(qps), np.array(freedom), lo, hi, box_active,
                              rows_active, relaxed, self.backend)
+
+    def residuals_without_rows(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]],
+                               *, limits: Limits | Chain | None, q: np.ndarray | None,
+                               qd_prev: np.ndarray | None, dt: float | None) -> np.ndarray:
+        """Each level's residual had the last `solve_validated` of these ``levels`` and
+        arguments had no extra rows (the box alone): from that solve's null-space projection
+        when it lies within the box (it is then that answer), else by solving again."""
+        x = self._projection
+        if x is None:
+            return self.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt).residuals
+        lo, hi = self.box(levels[0][0].shape[1], limits, q, qd_prev, dt)
+        x = np.minimum(np.maximum(x, lo), hi)
+        res = []
+        for A, b, sw in levels:
+            d = A @ x - b
+            if sw is not None:
+                d *= sw
+            res.append(math.sqrt(d.dot(d)))
+        return np.array(res)
 
     @staticmethod
     def _gradient(A, b, sw, M, Z, x, x_zero, lam2) -> np.ndarray:

@@ -173,3 +173,19 @@ def test_a_task_with_rows_alone_is_solved_and_may_change_its_number_of_rows():
     assert cmd.status != "halted", cmd.reason
     assert np.abs(cmd.qd[:4]).max() < 1e-12 < np.abs(cmd.qd[4:]).min()
     np.testing.assert_allclose(cmd.solve.task_errors, [0.0, np.linalg.norm(0.3 * np.ones(7))])
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_residuals_without_rows_are_those_of_a_solve_without_rows(seed):
+    rng = np.random.default_rng(seed)
+    n = 7
+    levels = [(rng.normal(size=(6, n)), rng.normal(size=6), None), (np.eye(n), rng.normal(size=n), None)]
+    G, h = rng.normal(size=(3, n)), rng.uniform(-0.2, 0.2, size=3)
+    lim = _Box(n, float(rng.uniform(0.5, 3.0)))
+    c = PriorityCascade()
+    with_rows = c.solve_validated(levels, limits=lim, q=None, qd_prev=None, dt=None,
+                                  extra_inequalities=(G, h))
+    free = c.residuals_without_rows(levels, limits=lim, q=None, qd_prev=None, dt=None)
+    alone = PriorityCascade().solve([L[:2] for L in levels], limits=lim)
+    np.testing.assert_allclose(free, alone.residuals, rtol=1e-9, atol=1e-12)
+    assert np.all(with_rows.residuals[:1] >= alone.residuals[:1] - 1e-9)  # the rows only cost
