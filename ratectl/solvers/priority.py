@@ -45,7 +45,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import lapack as _lapack
 
-from ..arrays import read_only
+from ..arrays import read_only, shared_zeros
 from ..errors import InputError, SolverError
 from ..model.limits import Limits
 from .base import _positive
@@ -128,6 +128,7 @@ class _Infeasible(Exception):
 
 
 _ACT_TOL = 1e-7  # a bound or row within this (relative) counts as active
+_NO_ROWS = shared_zeros(0, dtype=bool)
 
 
 class PriorityCascade:
@@ -174,6 +175,7 @@ class PriorityCascade:
         self.margin = _positive("margin", margin, allow_zero=True)
         self._bcache: _BoundCache | None = None
         self._eyes: dict[int, np.ndarray] = {}
+        self._kept: dict[tuple, np.ndarray] = {}
         self._projection: np.ndarray | None = None  # the last null-space projection within the box
 
     def __repr__(self) -> str:
@@ -350,9 +352,20 @@ class PriorityCascade:
             res.append(math.sqrt(d.dot(d)))
         span = np.abs(hi) + np.abs(lo)
         box_active = np.minimum(hi - x, x - lo) <= _ACT_TOL * np.maximum(span, 1.0, out=span)
-        rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else np.zeros(0, dtype=bool)
-        return _owned_result(x, np.array(res), np.array(qps), np.array(freedom), lo, hi, box_active,
-                             rows_active, relaxed, self.backend)
+        rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
+        return _owned_result(x, np.array(res), self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
+                             box_active, rows_active, relaxed, self.backend)
+
+    def _frozen(self, values: list, dtype: type) -> np.ndarray:
+        """``values`` as a read-only array, one kept per distinct list (a cascade sees few)."""
+        key = (dtype, tuple(values))
+        a = self._kept.get(key)
+        if a is None:
+            if len(self._kept) > 64:
+                self._kept.clear()
+            a = self._kept[key] = np.array(values, dtype=dtype)
+            a.setflags(write=False)
+        return a
 
     def residuals_without_rows(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]],
                                *, limits: Limits | Chain | None, q: np.ndarray | None,
@@ -600,8 +613,9 @@ def _null_space(M: np.ndarray, tolerance: float) -> np.ndarray:
 def _owned_result(qd, residuals, qps, freedom, lo, hi, box_active, rows_active, relaxed,
                   backend) -> CascadeResult:
     """The `CascadeResult` of the cascade's own fresh arrays, frozen in place rather than
-    copied (the box, which may be the bound cache's, is copied by `read_only`)."""
-    for a in (qd, residuals, qps, freedom, box_active, rows_active, relaxed):
+    copied (``qps`` and ``freedom`` read-only already; the box is copied by `read_only` only
+    where it is writable)."""
+    for a in (qd, residuals, box_active, rows_active, relaxed):
         a.setflags(write=False)
     r = object.__new__(CascadeResult)
     object.__setattr__(r, "__dict__", {"qd": qd, "residuals": residuals, "qps": qps, "freedom": freedom,
