@@ -315,14 +315,28 @@ class PriorityCascade:
                 parts.append(None)
                 continue
             Mw = A if sw is None else sw[:, None] * A
-            M = Mw if Z is None else Mw @ Z
-            H = M.T @ M
-            if lam2:
-                H += self._lam2_eye(r)
-            V = _null_space(M, self.tolerance) if k + 1 < nlev else None
-            parts.append((Z, M, H, V))
-            z = _spd_solve(H, self._gradient(A, b, sw, M, Z, x, start_zero, lam2))
-            x = x + (z if Z is None else Z @ z)
+            if r == 1 and Z is not None and not start_zero:
+                # one free direction v: the level's minimiser along it on floats
+                v = Z[:, 0]
+                mv = Mw @ v
+                rhs = b - A @ x
+                if sw is not None:
+                    rhs *= sw
+                hh = float(mv.dot(mv)) + lam2
+                t = (float(mv.dot(rhs)) - lam2 * float(v.dot(x))) / hh if hh > 0.0 else 0.0
+                M = mv[:, None]
+                V = _null_space(M, self.tolerance) if k + 1 < nlev else None
+                parts.append((Z, M, np.array([[hh]]), V))
+                x = x + v * t
+            else:
+                M = Mw if Z is None else Mw @ Z
+                H = M.T @ M
+                if lam2:
+                    H += self._lam2_eye(r)
+                V = _null_space(M, self.tolerance) if k + 1 < nlev else None
+                parts.append((Z, M, H, V))
+                z = _spd_solve(H, self._gradient(A, b, sw, M, Z, x, start_zero, lam2))
+                x = x + (z if Z is None else Z @ z)
             start_zero = False
             if V is not None:
                 Z = V if Z is None else Z @ V

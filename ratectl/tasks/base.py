@@ -195,6 +195,10 @@ class FrameTask(Task):
             ep, th = pose_error_into(e, self._target, T)
             norm = math.sqrt(ep * ep + th * th)
             np.multiply(e, self.gain * s, out=b)
+        elif r.stop == 3:  # the position alone: p_d − p (no rotation error to compute)
+            np.subtract(self._target[:3, 3], T[:3, 3], out=e)
+            norm = math.sqrt(float(e.dot(e)))
+            np.multiply(e, self.gain * s, out=b)
         else:
             e6 = self._e
             ep, th = pose_error_into(e6, self._target, T)
