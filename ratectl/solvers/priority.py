@@ -358,16 +358,11 @@ class PriorityCascade:
                                               lo_l, hi_l, G, h, h_tol, n, fallback)
                 start_zero = False
         x = np.minimum(np.maximum(x, lo), hi)
-        res = []
-        for A, b, sw in lv:
-            d = A @ x - b
-            if sw is not None:
-                d *= sw
-            res.append(math.sqrt(d.dot(d)))
+        res = _residuals(lv, x)
         span = np.abs(hi) + np.abs(lo)
         box_active = np.minimum(hi - x, x - lo) <= _ACT_TOL * np.maximum(span, 1.0, out=span)
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
-        return _owned_result(x, np.array(res), self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
+        return _owned_result(x, res, self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
                              box_active, rows_active, relaxed, self.backend)
 
     def _frozen(self, values: list, dtype: type) -> np.ndarray:
@@ -391,14 +386,7 @@ class PriorityCascade:
         if x is None:
             return self.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt).residuals
         lo, hi = self.box(levels[0][0].shape[1], limits, q, qd_prev, dt)
-        x = np.minimum(np.maximum(x, lo), hi)
-        res = []
-        for A, b, sw in levels:
-            d = A @ x - b
-            if sw is not None:
-                d *= sw
-            res.append(math.sqrt(d.dot(d)))
-        return np.array(res)
+        return _residuals(levels, np.minimum(np.maximum(x, lo), hi))
 
     @staticmethod
     def _gradient(A, b, sw, M, Z, x, x_zero, lam2) -> np.ndarray:
@@ -569,6 +557,17 @@ class PriorityCascade:
         except Exception:  # a backend's own exception types: reported as a failed level
             return None
         return None if x is None else np.asarray(x, dtype=float)
+
+
+def _residuals(levels, x: np.ndarray) -> np.ndarray:
+    """‖W_k^{1/2}(A_k q̇ − b_k)‖ of every level at q̇ = x."""
+    res = []
+    for A, b, sw in levels:
+        d = A @ x - b
+        if sw is not None:
+            d *= sw
+        res.append(math.sqrt(d.dot(d)))
+    return np.array(res)
 
 
 def _spd_solve(H: np.ndarray, g: np.ndarray) -> np.ndarray:
