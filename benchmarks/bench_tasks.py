@@ -42,7 +42,7 @@ sys.path.insert(0, os.path.dirname(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests", "tasks"))
 from _timing import CLOCKS, machine, update_docs  # noqa: E402
 from bench_controller import GcCounter, _version, stats  # noqa: E402
-from panda_erd import HOME, HULL_CONTACT, panda_chain, panda_urdf  # noqa: E402
+from panda_erd import HOME, panda_chain, panda_urdf  # noqa: E402
 
 import ratectl as rc  # noqa: E402
 
@@ -193,7 +193,7 @@ def main(argv=None) -> None:
         raise SystemExit("example-robot-data is not installed")
     chain = panda_chain(urdf)
     model = mujoco_panda(urdf)
-    sc = rc.collision.SelfCollision.from_urdf(urdf, chain, margin=0.02, exclude=HULL_CONTACT)
+    sc = rc.collision.SelfCollision.from_urdf(urdf, chain, margin=0.02)
     cases = [
         Case("pose + posture, one level", chain, model, "one-level", args.steps, DT),
         Case("tool p0 + panda_link4 p1 + posture p2", chain, model, "three-levels", args.steps, DT),

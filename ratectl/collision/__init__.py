@@ -3,7 +3,8 @@ own collision geometry, computed by coal (the ``collision`` extra:
 ``pip install 'ratectl[collision]'``), entering the solve as velocity-damper rows
 ``G q̇ ≤ h`` (see `ratectl.collision.model`).
 
-* `SelfCollision` — the arm's links (adjacent pairs left out and listed);
+* `SelfCollision` — the arm's links (adjacent pairs, and pairs that overlap in the default
+  configuration, left out and listed);
 * `Obstacles` — the links against `Sphere`, `Box` and `Mesh` obstacles in the base frame;
 * `CollisionModel`, `CollisionRows` — what both are and give.
 

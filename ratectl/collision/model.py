@@ -110,8 +110,39 @@ class CollisionModel:
         self._coal = coal
         self._req = coal.DistanceRequest()
         self._res = coal.DistanceResult()
+        self._tf = [coal.Transform3s() for _ in self.shapes]  # each shape's pose, set per cycle
         links = sorted({s.link for s in self.shapes if s.link is not None})
         self._links = links
+        # the rigid bodies the links lie on (the links after the same joint move as one):
+        # one pose and Jacobian per body and cycle, each link shape placed on its body
+        rep: dict[int, tuple[str, np.ndarray]] = {}
+        for lk in links:
+            k, T = chain.link_placement(lk)
+            rep.setdefault(k, (lk, T))
+        self._bodies = sorted(rep)
+        self._body_link = [rep[k][0] for k in self._bodies]
+        slot = {k: b for b, k in enumerate(self._bodies)}
+        self._arm = [i for i, s in enumerate(self.shapes) if s.link is not None]
+        self._obst = [i for i, s in enumerate(self.shapes) if s.link is None]
+        self._shape_body = np.full(len(self.shapes), len(self._bodies))  # obstacles: a fixed "body"
+        rel = []
+        for i in self._arm:
+            sh = self.shapes[i]
+            assert sh.link is not None
+            k, T = chain.link_placement(sh.link)
+            self._shape_body[i] = slot[k]
+            rel.append(np.linalg.solve(rep[k][1], T) @ sh.placement)  # body frame → shape
+        self._rel = np.array(rel).reshape(-1, 4, 4)
+        self._arm_body = self._shape_body[self._arm]
+        B = len(self._bodies)
+        self._P = np.zeros((B + 1, 4, 4))  # body poses; the last row stays zero (obstacles)
+        self._J = np.zeros((B + 1, 6, chain.dof))  # body Jacobians at the body origins
+        self._moving = []
+        for b, (k, lk) in enumerate(zip(self._bodies, self._body_link, strict=True)):
+            if k == 0:  # on the base: a constant pose, no Jacobian
+                self._P[b] = chain.fk(np.zeros(chain.dof), link=lk)
+            else:
+                self._moving.append((b, lk))
         self._pi = np.array([i for i, _ in self.pairs], dtype=int)
         self._pj = np.array([j for _, j in self.pairs], dtype=int)
         self._rsum = np.array([self.shapes[i].radius + self.shapes[j].radius for i, j in self.pairs])
@@ -200,15 +231,18 @@ class CollisionModel:
         n = chain.dof
         coal = self._coal
         shapes = self.shapes
-        fk = chain.fk
-        poses: dict[str | None, np.ndarray] = {link: fk(q, link=link) for link in self._links}
+        fkj = chain.fk_jacobian
+        P, Jb = self._P, self._J
+        for b, lk in self._moving:  # pose and Jacobian in one call
+            T, J = fkj(q, link=lk)
+            P[b] = T
+            Jb[b] = J
         S = len(shapes)
         W = np.empty((S, 4, 4))
-        for k, s in enumerate(shapes):
-            if s.link is None:
-                W[k] = s.obstacle.pose if s.obstacle is not None else s.placement
-            else:
-                W[k] = poses[s.link] @ s.placement
+        W[self._arm] = np.matmul(P[self._arm_body], self._rel)
+        for k in self._obst:
+            s = shapes[k]
+            W[k] = s.obstacle.pose if s.obstacle is not None else s.placement
         R = W[:, :3, :3]
         c = np.einsum("kij,kj->ki", R, self._centre) + W[:, :3, 3]
         lb = self._lower_bounds(R, c)
@@ -216,22 +250,28 @@ class CollisionModel:
         near = np.flatnonzero(lb < di)
         # every pair's bound is now referred to the current poses (d₀ ← the bound, exact
         # below for the pairs computed now)
-        self._d0, self._R0, self._c0 = lb, R.copy(), c
+        self._d0, self._R0, self._c0 = lb, R, c  # (W is this call's own)
         d0 = lb
-        jac: dict[str, np.ndarray] = {}
-        tf: dict[int, Any] = {}
+        Rc = np.ascontiguousarray(R)
+        tc = np.ascontiguousarray(W[:, :3, 3])
+        tfs = self._tf
+        placed = [False] * S  # shapes whose coal transform holds this cycle's pose
         req, res = self._req, self._res
-        G, h, dist, names = [], [], [], []
+        # per row: the signed distance, the pair, and for each side (its link, the witness
+        # point, ±n̂); the rows are assembled for all pairs at once after the loop
+        dist, names, wit, side_body = [], [], [], []
+        body = self._shape_body.tolist()
         closest, closest_pair = np.inf, None
         for k in near.tolist():
             i, j = self.pairs[k]
             a, b = shapes[i], shapes[j]
-            ta = tf.get(i)
-            if ta is None:
-                ta = tf[i] = coal.Transform3s(W[i, :3, :3], W[i, :3, 3])
-            tb = tf.get(j)
-            if tb is None:
-                tb = tf[j] = coal.Transform3s(W[j, :3, :3], W[j, :3, 3])
+            ta, tb = tfs[i], tfs[j]
+            if not placed[i]:
+                ta.setTransform(Rc[i], tc[i])
+                placed[i] = True
+            if not placed[j]:
+                tb.setTransform(Rc[j], tc[j])
+                placed[j] = True
             res.clear()
             d = float(coal.distance(a.geometry, ta, b.geometry, tb, req, res))
             d0[k] = d
@@ -239,26 +279,32 @@ class CollisionModel:
                 closest, closest_pair = d, (a.name, b.name)
             if d >= di:
                 continue
-            nx, ny, nz = res.normal
-            nrm = np.array((nx, ny, nz))
-            row = np.zeros(n)
-            for s, p, sign in ((a, res.getNearestPoint1(), -1.0), (b, res.getNearestPoint2(), 1.0)):
-                if s.link is None:
-                    continue
-                J = jac.get(s.link)
-                if J is None:
-                    J = jac[s.link] = chain.jacobian(q, link=s.link)
-                # n̂ᵀ J_v(p) with J_v(p) = J_v(o) − [p − o]× J_ω: n̂ᵀJ_v(o) + ((p − o) × n̂)ᵀ J_ω
-                o = poses[s.link]
-                rx, ry, rz = p[0] - o[0, 3], p[1] - o[1, 3], p[2] - o[2, 3]
-                rxn = np.array((ry * nz - rz * ny, rz * nx - rx * nz, rx * ny - ry * nx))
-                row += sign * (nrm @ J[:3] + rxn @ J[3:])
-            G.append(-row)  # −ḋ ≤ ξ (d − d_s)/(d_i − d_s)
-            h.append(xi * (d - ds) / (di - ds))
+            nv = res.normal.tolist()
+            wit.append(res.getNearestPoint1().tolist() + [-nv[0], -nv[1], -nv[2]])
+            wit.append(res.getNearestPoint2().tolist() + nv)
+            side_body += [body[i], body[j]]
             dist.append(d)
             names.append((a.name, b.name))
-        return CollisionRows(G=np.array(G).reshape(-1, n), h=np.array(h), distance=np.array(dist),
-                             pairs=tuple(names), closest=float(closest), closest_pair=closest_pair)
+        m = len(dist)
+        if not m:
+            return CollisionRows(G=np.zeros((0, n)), h=np.zeros(0), distance=np.zeros(0), pairs=(),
+                                 closest=float(closest), closest_pair=closest_pair)
+        # ḋ = Σ over the two sides of ±n̂ᵀ J_v(p) q̇, with J_v(p) = J_v(o) − [p − o]× J_ω:
+        # ±(n̂ᵀ J_v(o) + ((p − o) × n̂)ᵀ J_ω) = w ᵀ J (w = [±n̂; (p − o) × ±n̂], 6 numbers)
+        idx = np.array(side_body)
+        w = np.array(wit)  # (2m, 6): the witness point, ±n̂
+        r = w[:, :3] - P[idx, :3, 3]
+        nv = w[:, 3:].copy()
+        w[:, :3] = nv
+        w[:, 3] = r[:, 1] * nv[:, 2] - r[:, 2] * nv[:, 1]
+        w[:, 4] = r[:, 2] * nv[:, 0] - r[:, 0] * nv[:, 2]
+        w[:, 5] = r[:, 0] * nv[:, 1] - r[:, 1] * nv[:, 0]
+        rows2 = np.matmul(w[:, None, :], Jb[idx])[:, 0, :]  # (2m, n)
+        G = -(rows2[0::2] + rows2[1::2])  # −ḋ ≤ ξ (d − d_s)/(d_i − d_s)
+        distance = np.array(dist)
+        h = xi * (distance - ds) / (di - ds)
+        return CollisionRows(G=G, h=h, distance=distance, pairs=tuple(names), closest=float(closest),
+                             closest_pair=closest_pair)
 
     def __repr__(self) -> str:
         return (f"{type(self).__name__}({self.chain.name!r}, {len(self.shapes)} shapes, {len(self.pairs)} "

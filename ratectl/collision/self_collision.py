@@ -17,7 +17,7 @@ from .shapes import coal_geometry
 if TYPE_CHECKING:
     from ..model.chain import Chain
 
-__all__ = ["SelfCollision", "Obstacles", "arm_shapes"]
+__all__ = ["SelfCollision", "Obstacles", "arm_shapes", "default_configuration"]
 
 
 def arm_shapes(path: Any, chain: Chain, *, package_dirs: Any = None,
@@ -76,22 +76,32 @@ class SelfCollision(CollisionModel):
     def from_urdf(cls, path: Any, chain: Chain, *, margin: float = 0.02, influence: float | None = None,
                   gain: float = 0.5, exclude: Iterable[Sequence[str]] | None = None,
                   include: Iterable[Sequence[str]] | None = None, obstacles: Sequence[Any] = (),
-                  package_dirs: Any = None) -> SelfCollision:
+                  package_dirs: Any = None, default_overlap: bool = True) -> SelfCollision:
         """Self-collision from the URDF's collision geometry (the convex hull of each mesh).
 
-        Pairs of links on the same or on neighbouring chain joints (adjacent links, which touch
-        by construction) are left out and listed in ``excluded``; a gripper's links count as the
-        link they hang from.
+        Left out, each listed in ``excluded`` with its reason:
+
+        * pairs of links on the same or on neighbouring chain joints (adjacent links, which
+          touch by construction); a gripper's links count as the link they hang from;
+        * with ``default_overlap`` (default), pairs whose shapes overlap in the default
+          configuration `default_configuration` (every joint at 0, or at the middle of its
+          range where 0 is outside it): a pose the arm takes, so their collision geometry is
+          coarser than the links there (a damper on them would hold the arm near that
+          pose). This is the "Default" reason of a MoveIt SRDF (e.g. the Panda's link 5
+          with link 7 and with the hand);
+        * the pairs of ``exclude``.
 
         Args:
             path: the URDF file (the one ``chain`` was read from).
             chain: the arm (`ratectl.Chain.from_urdf`).
             margin: the security distance d_s [m]; influence, gain: see `CollisionModel`.
-            exclude: more link pairs to leave out, e.g. ``[("panda_link5", "panda_hand")]``.
-            include: adjacent link pairs to check after all.
+            exclude: more link pairs to leave out, e.g. ``[("panda_link3", "panda_hand")]``.
+            include: link pairs to check after all (adjacent, or overlapping in the default
+                configuration).
             obstacles: `ratectl.collision.Sphere`, `Box`, `Mesh` objects, checked against
                 every link.
             package_dirs: directories for ``package://`` mesh URIs.
+            default_overlap: leave out the pairs that overlap in the default configuration.
         """
         shapes, index, held = arm_shapes(path, chain, package_dirs=package_dirs)
         ex, inc = _pairs_by_name(exclude, "exclude"), _pairs_by_name(include, "include")
@@ -115,11 +125,30 @@ class SelfCollision(CollisionModel):
                         seen.add(key)
                     continue
                 pairs.append((i, j))
+        if default_overlap and pairs:
+            q0 = default_configuration(chain)
+            d = cls(chain, shapes, pairs, margin=margin, influence=influence, gain=gain).distances(q0)
+            overlap: dict[frozenset[str], float] = {}
+            for (i, j), dk in zip(pairs, d.tolist(), strict=True):
+                key = frozenset((shapes[i].group, shapes[j].group))
+                if dk < 0.0 and key not in inc:
+                    overlap[key] = min(overlap.get(key, 0.0), dk)
+            for key, dk in overlap.items():
+                ga, gb = sorted(key)
+                excluded.append((ga, gb, f"overlap in the default configuration (by {-dk * 1e3:.3g} mm)"))
+            pairs = [(i, j) for i, j in pairs if frozenset((shapes[i].group, shapes[j].group)) not in overlap]
         obstacle_pairs(shapes, pairs, obstacles)
         model = cls(chain, shapes, pairs, margin=margin, influence=influence, gain=gain,
                     excluded=tuple(excluded))
         model.held_links = held
         return model
+
+
+def default_configuration(chain: Chain) -> np.ndarray:
+    """The chain's default configuration (n,) [rad or m]: every joint at 0, or at the middle of
+    its range where 0 is outside it (the default state of a MoveIt robot model)."""
+    lo, hi = np.asarray(chain.qlim, dtype=float).T
+    return np.where((lo <= 0.0) & (0.0 <= hi), 0.0, 0.5 * (lo + hi))
 
 
 class Obstacles(CollisionModel):

@@ -8,6 +8,7 @@ its answers into the cycle's `Command` (the tool pose task's error, when there i
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -42,13 +43,13 @@ def tasks_command(stage: TasksStage, chain: Chain, res: Any, q_next: np.ndarray,
     flags = tuple(dict.fromkeys(res.flags + flags)) or ("regular",)
     reasons = res.reasons + reasons
     status = min(flags, key=_RANK.__getitem__)
-    e = np.zeros(6)
-    ep = eo = float("nan")
-    for t in stage.tasks:  # the tool pose task's error, when there is one
-        if type(t).__name__ == "Pose" and getattr(t, "link", None) is None and t.has_target:
-            e = t.rows(chain, q).error.copy()
-            ep, eo = float(np.linalg.norm(e[:3])), float(np.linalg.norm(e[3:]))
-            break
+    e = stage.tool_error()  # the tool pose task's error, when there is one
+    if e is None:
+        e = np.zeros(6)
+        ep = eo = float("nan")
+    else:
+        ex, ey, ez, rx, ry, rz = e.tolist()
+        ep, eo = math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(rx * rx + ry * ry + rz * rz)
     return make_command({"qd": qd, "q_next": q_next, "qdd": qdd.copy(), "status": status,
                          "flags": flags, "reason": "; ".join(reasons), "error": e,
                          "position_error": ep, "orientation_error": eo, "twist": np.zeros(6),

@@ -9,6 +9,7 @@ constraints of every level, beside the joint position, velocity and acceleration
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -16,9 +17,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..arrays import read_only
-from ..errors import InputError
-from ..solvers.priority import CascadeResult, Level, PriorityCascade
-from ..solvers.qp.bounds import joint_velocity_bounds
+from ..errors import InputError, SolverError
+from ..solvers.priority import CascadeResult, PriorityCascade
 from ..tasks.base import Task
 
 if TYPE_CHECKING:
@@ -26,9 +26,6 @@ if TYPE_CHECKING:
     from ..model.limits import Limits
 
 __all__ = ["TasksStage", "TasksResult"]
-
-_KINDS = {1: "velocity", 2: "position", 3: "acceleration"}
-
 
 @dataclass(frozen=True, kw_only=True)
 class TasksResult:
@@ -109,55 +106,94 @@ class TasksStage:
         self.tasks = tasks
         self.collision = collision
         self.cascade = cascade if cascade is not None else PriorityCascade()
+        self._key: list | None = None  # (priority, weight, rows) of each task with a target
+        # per task with a target: (index, task, its slices of A, b and the errors, √weight)
+        self._fills: list[tuple[int, Task, np.ndarray, np.ndarray, np.ndarray, float]] = []
+        self._levels: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
+        self._priorities: tuple[int, ...] = ()
+        self._tool_e: np.ndarray | None = None
 
-    def solve(self, q: np.ndarray, *, dt: float, qd_prev: np.ndarray | None,
-              limits: Limits | Chain | None) -> TasksResult:
-        """q̇ for this cycle (see the module docstring)."""
+    def _layout(self, q: np.ndarray, key: list) -> None:
+        """Each level's arrays (the weighted rows √w·A (m, n) and √w·b (m,), the errors (m,))
+        and each task's slice of them; rebuilt when a task gains or loses its target or
+        changes priority, weight or number of rows."""
         chain = self.chain
         n = chain.dof
-        by_priority: dict[int, list] = {}
-        errors = np.full(len(self.tasks), np.nan)
+        by_priority: dict[int, list[tuple[int, Task, int]]] = {}
         for k, t in enumerate(self.tasks):
-            if not t.has_target:
-                continue
-            r = t.rows(chain, q)
-            errors[k] = float(np.linalg.norm(r.error))
-            by_priority.setdefault(t.priority, []).append((r, t.weight))
+            if key[k] is not None:
+                by_priority.setdefault(t.priority, []).append((k, t, key[k][2]))
         if not by_priority:
             raise InputError("no task has a target: call set_target on at least one task",
                              argument="tasks", value=self.tasks)
-        priorities = tuple(sorted(by_priority))
-        levels = []
-        for p in priorities:
+        self._priorities = tuple(sorted(by_priority))
+        self._fills, self._levels, self._tool_e = [], [], None
+        for p in self._priorities:
             items = by_priority[p]
-            A = np.vstack([r.A for r, _ in items])
-            b = np.concatenate([r.b for r, _ in items])
-            w = np.concatenate([np.full(r.b.shape[0], wt) for r, wt in items])
-            levels.append(Level(A, b, w))
-        G = np.zeros((0, n))
-        h = np.zeros(0)
+            m = sum(size for _, _, size in items)
+            A, b, e = np.zeros((m, n)), np.zeros(m), np.zeros(m)
+            i = 0
+            for k, t, size in items:
+                sl = slice(i, i + size)
+                self._fills.append((k, t, A[sl], b[sl], e[sl], math.sqrt(t.weight)))
+                if (self._tool_e is None and type(t).__name__ == "Pose"
+                        and getattr(t, "link", None) is None):
+                    self._tool_e = e[sl]
+                i += size
+            self._levels.append((A, b, None))  # the rows are written weighted (× √weight)
+        self._key = key
+
+    def tool_error(self) -> np.ndarray | None:
+        """The tool `Pose` task's error [p_d − p; log(R_d Rᵀ)] (6,) of the last solve (a
+        copy), or None without one."""
+        return None if self._tool_e is None else self._tool_e.copy()
+
+    def solve(self, q: np.ndarray, *, dt: float, qd_prev: np.ndarray | None,
+              limits: Limits | Chain | None) -> TasksResult:
+        """q̇ for this cycle (see the module docstring). ``q`` finite (n,) float64 and ``dt``
+        > 0, as the controller's gate passes them."""
+        chain = self.chain
+        key = [(t.priority, t.weight, t._row_count(chain, q)) if t.has_target else None
+               for t in self.tasks]
+        if key != self._key:
+            self._layout(q, key)
+        errs = [math.nan] * len(self.tasks)
+        for k, t, A_t, b_t, e_t, sw in self._fills:
+            errs[k] = t._fill(chain, q, A_t, b_t, e_t, sw)
+        errors = np.array(errs)
+        priorities = self._priorities
+        levels = self._levels
+        G: np.ndarray | None = None
+        h: np.ndarray | None = None
         pairs: list[tuple[str, str]] = []
         dist: list[float] = []
-        closest = np.inf
+        closest = math.inf
         if self.collision:
             parts = [c.rows(q) for c in self.collision]
-            G = np.vstack([G] + [p.G for p in parts])
-            h = np.concatenate([h] + [p.h for p in parts])
+            if len(parts) == 1:
+                G, h = parts[0].G, parts[0].h
+            else:
+                G = np.vstack([p.G for p in parts])
+                h = np.concatenate([p.h for p in parts])
             for p in parts:
                 pairs += p.pairs
                 dist += p.distance.tolist()
                 closest = min(closest, p.closest)
-        res = self.cascade.solve(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
-                                 extra_inequalities=(G, h) if h.size else None)
+        rows = (G, h) if G is not None and h is not None and h.size else None
+        res = self.cascade.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
+                                           extra_inequalities=rows)
+        if not math.isfinite(sum(res.qd.tolist())):
+            raise SolverError("the priority cascade gave a non-finite q̇ (non-finite task rows?)",
+                              status="failed")
         flags: list[str] = []
         reasons: list[str] = []
-        if h.size and res.rows_active.any():
+        if rows is not None and res.rows_active.any():
             # held back = the level does worse than with the box alone (one more cascade,
             # only in the cycles where a damper row is active)
-            free = self.cascade.solve(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
-            scale = 1.0 + float(np.abs(levels[0].b).max())
-            blocked = [p for p, r, r0 in zip(priorities, res.residuals.tolist(), free.residuals.tolist(),
-                                             strict=True) if r > r0 + 1e-6 * scale]
+            free = self.cascade.residuals_without_rows(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
+            scale = 1.0 + float(np.abs(levels[0][1]).max())  # (the weighted b)
+            blocked = [p for p, r, r0 in zip(priorities, res.residuals.tolist(), free.tolist(), strict=True)
+                       if r > r0 + 1e-6 * scale]
             if blocked:
                 act = np.flatnonzero(res.rows_active)
                 worst = int(act[np.argmin(np.asarray(dist)[act])])
@@ -165,26 +201,32 @@ class TasksStage:
                 reasons.append(f"collision avoidance holds back priority level(s) {blocked}: "
                                f"{act.size} damper row(s) active, closest {pairs[worst][0]} – "
                                f"{pairs[worst][1]} at {dist[worst] * 1e3:.3g} mm")
-        if res.relaxed.any():
+        if rows is not None and res.relaxed.any():
             flags.append("collision-avoidance")
             reasons.append(f"a collision damper could not be met within the joint limits this period "
                            f"(relaxed by up to {float(res.relaxed.max()):.3g} m/s)")
         active: tuple[str, ...] = ()
-        if res.box_active.any() and limits is not None:
-            vb = joint_velocity_bounds(limits, q=q, qd_prev=qd_prev, dt=dt, margin=self.cascade.margin, n=n)
+        if limits is not None and res.box_active.any():
             by_kind: dict[str, list[str]] = {}
-            for j in np.flatnonzero(res.box_active).tolist():
-                up = abs(res.qd[j] - vb.upper[j]) <= abs(res.qd[j] - vb.lower[j])
-                src = int(vb.source_upper[j] if up else vb.source_lower[j])
-                if src in _KINDS:
-                    by_kind.setdefault(_KINDS[src], []).append(chain.joint_names[j])
+            for j, kind in self.cascade.limit_kinds(res, qd_prev):
+                by_kind.setdefault(kind, []).append(chain.joint_names[j])
             active = tuple(k for k in ("velocity", "position", "acceleration") if k in by_kind)
             for kind, flag in (("position", "joint-limit"), ("velocity", "velocity-scaled"),
                                ("acceleration", "acceleration-limited")):
                 if kind in by_kind:
                     flags.append(flag)
                     reasons.append(f"joint(s) {by_kind[kind]} at their {kind} bound")
-        return TasksResult(qd=res.qd.copy(), priorities=priorities, residuals=res.residuals,
-                           task_errors=errors, flags=tuple(dict.fromkeys(flags)), reasons=tuple(reasons),
-                           limits_active=active, collision_distance=float(closest), cascade=res,
-                           damper_rows=(G, h) if self.collision else None)
+        errors.setflags(write=False)
+        damper = None if G is None or h is None else (read_only(G), read_only(h))
+        return _owned_result(TasksResult, {
+            "qd": res.qd, "priorities": priorities, "residuals": res.residuals, "task_errors": errors,
+            "flags": tuple(dict.fromkeys(flags)), "reasons": tuple(reasons), "limits_active": active,
+            "collision_distance": float(closest), "cascade": res, "damper_rows": damper})
+
+
+def _owned_result(cls: type, fields: dict[str, Any]) -> Any:
+    """A frozen result of ``cls`` from ``fields``, whose arrays are read-only already (the
+    cascade's own, or frozen in place by the caller): no dataclass ``__init__``, no copies."""
+    r: Any = object.__new__(cls)
+    object.__setattr__(r, "__dict__", fields)
+    return r

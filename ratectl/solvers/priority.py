@@ -20,8 +20,13 @@ makes the constraints degenerate. The cascade stops when no freedom is left.
 
 Each level first tries the unconstrained minimiser (the null-space projection
 ``z = −H⁻¹f``): when it satisfies the box and the rows no QP is solved (that is
-null-space projection exactly, where no inequality is active); otherwise the backend
-solves the level's QP. When the box and the rows G q̇ ≤ h have no common point (a
+null-space projection exactly, where no inequality is active). Otherwise two cases have a
+closed form: a level with one free direction (a QP in one unknown) takes its minimiser
+clipped to the interval the box and the rows leave on that line; a level with lower levels
+after it whose minimisers form a line (its rows leave one direction unseen) takes the point
+of that line of least norm (the damping's choice) inside the box and the rows, when the line
+crosses them — the lower levels then move along it anyway. Anything else goes to the
+backend, which solves the level's QP. When the box and the rows G q̇ ≤ h have no common point (a
 collision damper that the acceleration limit cannot honour this period), the rows are
 first relaxed by the least-squares slack s ≥ 0 (G q̇ ≤ h + s) that makes them feasible,
 and the result says so (``relaxed``).
@@ -32,17 +37,23 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from operator import gt as _gt
+from operator import lt as _lt
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.linalg import lapack as _lapack
 
-from ..arrays import read_only
+from ..arrays import read_only, shared_zeros
 from ..errors import InputError, SolverError
 from ..model.limits import Limits
 from .base import _positive
 from .qp.active_set import qp_via_dual
 from .qp.bounds import _BIG, _BoundCache, _box, _vec
+
+_dposv = _lapack.dposv
+_dgesdd = _lapack.dgesdd
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -117,6 +128,7 @@ class _Infeasible(Exception):
 
 
 _ACT_TOL = 1e-7  # a bound or row within this (relative) counts as active
+_NO_ROWS = shared_zeros(0, dtype=bool)
 
 
 class PriorityCascade:
@@ -162,6 +174,9 @@ class PriorityCascade:
         self.tolerance = _positive("tolerance", tolerance, allow_zero=True)
         self.margin = _positive("margin", margin, allow_zero=True)
         self._bcache: _BoundCache | None = None
+        self._eyes: dict[int, np.ndarray] = {}
+        self._kept: dict[tuple, np.ndarray] = {}
+        self._projection: np.ndarray | None = None  # the last null-space projection within the box
 
     def __repr__(self) -> str:
         return f"PriorityCascade(backend={self.backend!r}, damping={self.damping!r})"
@@ -173,11 +188,36 @@ class PriorityCascade:
         ±1e15 where a side is absent)."""
         if limits is None:
             return np.full(n, -_BIG), np.full(n, _BIG)
+        lo, hi, _ = _box(self._cache(n, limits, dt), q, qd_prev)
+        return lo, hi
+
+    def limit_kinds(self, res: CascadeResult, qd_prev: np.ndarray | None) -> list[tuple[int, str]]:
+        """``(joint, kind)`` for each joint on a face of the box of ``res`` (the last solve's,
+        with its ``qd_prev``): ``"velocity"`` where the face is ±vmax, ``"acceleration"``
+        where it is q̇_prev ± amax·dt, else ``"position"`` (the box holds exact copies of
+        these bounds, as `joint_velocity_bounds` reports its sources)."""
+        bc = self._bcache
+        if bc is None or not res.box_active.any():
+            return []
+        qd, lo, hi = res.qd.tolist(), res.lower.tolist(), res.upper.tolist()
+        vmax, adt = bc.vmax_l, bc.amax_dt_l
+        qp = qd_prev.tolist() if qd_prev is not None and bc.has_acc and adt is not None else None
+        out = []
+        for j in np.flatnonzero(res.box_active).tolist():
+            v, sign = (hi[j], 1.0) if abs(qd[j] - hi[j]) <= abs(qd[j] - lo[j]) else (lo[j], -1.0)
+            if v == sign * vmax[j]:
+                out.append((j, "velocity"))
+            elif qp is not None and adt is not None and v == qp[j] + sign * adt[j]:
+                out.append((j, "acceleration"))
+            else:
+                out.append((j, "position"))
+        return out
+
+    def _cache(self, n: int, limits: Limits | Chain, dt: float | None) -> _BoundCache:
         bc = self._bcache
         if bc is None or bc.src is not limits or bc.dt != dt or bc.n != n:
             bc = self._bcache = _BoundCache(limits, Limits.of(limits, n), dt, self.margin)
-        lo, hi, _ = _box(bc, q, qd_prev)
-        return np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+        return bc
 
     # ------------------------------------------------------------------ solve
     def solve(self, levels: Sequence[Level | tuple], *, limits: Limits | Chain | None = None,
@@ -209,77 +249,207 @@ class PriorityCascade:
         qdv = _vec("qd_prev", qd_prev, n)
         if dt is not None:
             dt = _positive("dt", dt)
-        lo, hi = self.box(n, limits, qv, qdv, dt)
         G, h = self._rows(extra_inequalities, n)
+        return self.solve_validated(lv, limits=limits, q=qv, qd_prev=qdv, dt=dt,
+                                    extra_inequalities=(G, h) if h.size else None)
+
+    def solve_validated(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]], *,
+                        limits: Limits | Chain | None, q: np.ndarray | None, qd_prev: np.ndarray | None,
+                        dt: float | None,
+                        extra_inequalities: tuple[np.ndarray, np.ndarray] | None = None) -> CascadeResult:
+        """`solve` without its checks, for a caller that has made them (the controller's
+        tasks stage): ``levels`` are ``(A, b, sw)`` triples of finite float64 arrays, A (m, n),
+        b (m,) and ``sw`` (m,) the square roots of the row weights or None (all 1); ``q`` and
+        ``qd_prev`` finite float64 (n,) or None; ``dt`` > 0 or None; ``extra_inequalities``
+        ``(G (k, n), h (k,))`` float64 with k ≥ 1, or None. The answer is `solve`'s."""
+        n = levels[0][0].shape[1]
+        lo, hi = self.box(n, limits, q, qd_prev, dt)
+        bc = self._bcache
+        for a in (lo, hi):  # the step's own box is frozen in place for the result (not copied)
+            if bc is None or (a is not bc.vmax and a is not bc.nvmax):
+                a.setflags(write=False)
+        if extra_inequalities is None:
+            G, h = np.zeros((0, n)), np.zeros(0)
+        else:
+            G, h = extra_inequalities
         try:
-            return self._cascade(lv, lo, hi, G, h, np.zeros(h.shape[0]), n)
+            return self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]), n)
         except _Infeasible:
             if not h.size:
                 raise SolverError(f"the priority cascade's first level failed on backend "
                                   f"{self.backend!r}", status="failed") from None
         relaxed, feasible = self._relaxation(lo, hi, G, h)
-        return self._cascade(lv, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible)
+        return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible)
 
     def _cascade(self, lv, lo, hi, G, h, relaxed, n, fallback=None) -> CascadeResult:
         """The levels in order; ``fallback`` (a q̇ known to satisfy the box and the rows)
         stands in for the first level's QP if its backend finds no point (a relaxed problem
-        on the edge of its tolerance)."""
-        x = np.minimum(np.maximum(np.zeros(n), lo), hi)
-        Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
+        on the edge of its tolerance).
+
+        First every level's unconstrained minimiser, each in the null space of the levels
+        above (null-space projection): when the final q̇ satisfies the box and the rows it
+        is the answer — each level's optimum over its free directions lies inside them, so
+        no inequality is active at any level. Otherwise the levels again, each one's answer
+        tested against the box and the rows (`_solve_level`). Per level: ``H = MᵀM + λ²I`` (M
+        the weighted rows in the free directions) solved by one Cholesky (LAPACK
+        ``dposv``); the null space for the next level from one SVD of M (``dgesdd``),
+        skipped after the last level. Neither depends on q̇, so the second pass reuses them."""
+        lo_l = (lo - 1e-12).tolist()
+        hi_l = (hi + 1e-12).tolist()
+        x_zero = max(lo_l) <= -1e-12 and min(hi_l) >= 1e-12  # the box holds q̇ = 0
+        x0 = np.zeros(n) if x_zero else np.minimum(np.maximum(lo, 0.0), hi)
         lam2 = self.damping**2
-        qps = np.zeros(len(lv), dtype=bool)
-        freedom = np.zeros(len(lv), dtype=int)
+        nlev = len(lv)
         have_rows = h.size > 0
+        h_tol = h + 1e-12 * (1.0 + np.abs(h)) if have_rows else h
+        # pass 1: null-space projection; each level's (Z, M, H, V) kept
+        Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
+        parts: list[tuple | None] = []
+        freedom = [0] * nlev
+        x = x0
+        start_zero = x_zero
         for k, (A, b, sw) in enumerate(lv):
             r = n if Z is None else Z.shape[1]
             freedom[k] = r
             if r == 0:
+                parts.append(None)
                 continue
-            M = sw[:, None] * A if Z is None else (sw[:, None] * A) @ Z
-            rhs = sw * (b - A @ x)
-            # min ½‖M z − rhs‖² + ½λ²‖x + Z z‖²
-            H = M.T @ M
-            f = -(M.T @ rhs)
-            if lam2:
-                H = H + lam2 * np.eye(r)
-                f = f + lam2 * (x if Z is None else Z.T @ x)
-            try:
-                z = -np.linalg.solve(H, f)
-            except np.linalg.LinAlgError:
-                z = -np.linalg.lstsq(H, f, rcond=None)[0]
-            step = z if Z is None else Z @ z
-            cand = x + step
-            ok = bool(np.all(cand >= lo - 1e-12) and np.all(cand <= hi + 1e-12))
-            if ok and have_rows:
-                ok = bool(np.all(G @ cand <= h + 1e-12 * (1.0 + np.abs(h))))
-            if not ok:
-                qps[k] = True
-                try:
-                    z = self._level_qp(H, f, x, Z, lo, hi, G, h, n, r)
-                except _Infeasible:
-                    if fallback is None:
-                        raise
-                    z = fallback - x
-                step = z if Z is None else Z @ z
-                cand = x + step
-            x = cand
-            # what the next levels may still change: the null space of this level's rows
-            if k + 1 < len(lv):
-                _, s, vt = np.linalg.svd(M, full_matrices=True)
-                tol = self.tolerance * max(1.0, float(s[0]) if s.size else 0.0)
-                rank = int(np.count_nonzero(s > tol))
-                V = vt[rank:].T
+            Mw = A if sw is None else sw[:, None] * A
+            if r == 1 and Z is not None and not start_zero:
+                # one free direction v: the level's minimiser along it on floats
+                v = Z[:, 0]
+                mv = Mw @ v
+                rhs = b - A @ x
+                if sw is not None:
+                    rhs *= sw
+                hh = float(mv.dot(mv)) + lam2
+                t = (float(mv.dot(rhs)) - lam2 * float(v.dot(x))) / hh if hh > 0.0 else 0.0
+                M = mv[:, None]
+                V = _null_space(M, self.tolerance) if k + 1 < nlev else None
+                parts.append((Z, M, np.array([[hh]]), V))
+                x = x + v * t
+            else:
+                M = Mw if Z is None else Mw @ Z
+                H = M.T @ M
+                if lam2:
+                    H += self._lam2_eye(r)
+                V = _null_space(M, self.tolerance) if k + 1 < nlev else None
+                parts.append((Z, M, H, V))
+                z = _spd_solve(H, self._gradient(A, b, sw, M, Z, x, start_zero, lam2))
+                x = x + (z if Z is None else Z @ z)
+            start_zero = False
+            if V is not None:
                 Z = V if Z is None else Z @ V
+        cl = x.tolist()
+        ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
+        self._projection = x if ok else None  # (within the box: the answer without the rows)
+        if ok and have_rows:
+            ok = bool((G @ x <= h_tol).all())
+        qps = [False] * nlev
+        if not ok:
+            # pass 2: each level's answer within the box and the rows
+            x = x0
+            start_zero = x_zero
+            for k, (A, b, sw) in enumerate(lv):
+                part = parts[k]
+                if part is None:
+                    continue
+                x, qps[k] = self._solve_level(A, b, sw, part, x, start_zero, lam2, k + 1 < nlev, lo, hi,
+                                              lo_l, hi_l, G, h, h_tol, n, fallback)
+                start_zero = False
         x = np.minimum(np.maximum(x, lo), hi)
-        residuals = np.array([math.sqrt(float(np.sum((sw * (A @ x - b)) ** 2))) for A, b, sw in lv])
-        span = np.maximum(1.0, np.abs(hi) + np.abs(lo))
-        box_active = (x >= hi - _ACT_TOL * span) | (x <= lo + _ACT_TOL * span)
-        rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else np.zeros(0, dtype=bool)
-        return CascadeResult(qd=x, residuals=residuals, qps=qps, freedom=freedom, lower=lo, upper=hi,
-                             box_active=box_active, rows_active=rows_active, relaxed=relaxed,
-                             backend=self.backend)
+        res = _residuals(lv, x)
+        span = np.abs(hi) + np.abs(lo)
+        box_active = np.minimum(hi - x, x - lo) <= _ACT_TOL * np.maximum(span, 1.0, out=span)
+        rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
+        return _owned_result(x, res, self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
+                             box_active, rows_active, relaxed, self.backend)
+
+    def _frozen(self, values: list, dtype: type) -> np.ndarray:
+        """``values`` as a read-only array, one kept per distinct list (a cascade sees few)."""
+        key = (dtype, tuple(values))
+        a = self._kept.get(key)
+        if a is None:
+            if len(self._kept) > 64:
+                self._kept.clear()
+            a = self._kept[key] = np.array(values, dtype=dtype)
+            a.setflags(write=False)
+        return a
+
+    def residuals_without_rows(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]],
+                               *, limits: Limits | Chain | None, q: np.ndarray | None,
+                               qd_prev: np.ndarray | None, dt: float | None) -> np.ndarray:
+        """Each level's residual had the last `solve_validated` of these ``levels`` and
+        arguments had no extra rows (the box alone): from that solve's null-space projection
+        when it lies within the box (it is then that answer), else by solving again."""
+        x = self._projection
+        if x is None:
+            return self.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt).residuals
+        lo, hi = self.box(levels[0][0].shape[1], limits, q, qd_prev, dt)
+        return _residuals(levels, np.minimum(np.maximum(x, lo), hi))
+
+    @staticmethod
+    def _gradient(A, b, sw, M, Z, x, x_zero, lam2) -> np.ndarray:
+        """−f of a level at the answer so far x: ``Mᵀ W^{1/2}(b − A x) − λ² Zᵀx``."""
+        rhs = b if x_zero else b - A @ x
+        if sw is not None:
+            rhs = rhs * sw
+        g = M.T @ rhs
+        if lam2 and not x_zero:
+            g -= lam2 * (x if Z is None else Z.T @ x)
+        return g
+
+    def _solve_level(self, A, b, sw, part, x, x_zero, lam2, more, lo, hi, lo_l, hi_l, G, h, h_tol, n,
+               fallback) -> tuple[np.ndarray, bool]:
+        """One level of the second pass from the answer so far x: ``(x', a QP was needed)``.
+
+        The unconstrained minimiser when it satisfies the box and the rows; else a level
+        with one free direction takes its minimiser clipped to the interval left on that
+        line, a level with ``more`` levels after it whose minimisers form a line (V has one
+        column) takes the line's least-norm point inside the box and the rows, and anything
+        else the backend's QP."""
+        Z, M, H, V = part
+        r = H.shape[0]
+        g = self._gradient(A, b, sw, M, Z, x, x_zero, lam2)
+        z = _spd_solve(H, g)
+        cand = x + (z if Z is None else Z @ z)
+        cl = cand.tolist()
+        ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
+        if ok and h.size:
+            ok = bool((G @ cand <= h_tol).all())
+        if ok:
+            return cand, False
+        if r == 1:
+            # a QP in one unknown: its unconstrained minimiser clipped to the interval the box
+            # and the rows leave along the one free direction
+            v = Z[:, 0] if Z is not None else np.ones(1)
+            seg = _segment(x, v, lo, hi, G, h)
+            if seg is not None:
+                return x + v * min(max(float(z[0]), seg[0]), seg[1]), True
+        elif more and V is not None and V.shape[1] == 1:
+            # the level's minimisers are a line through cand (its rows do not see the
+            # direction v): where the line crosses the box and the rows, its point of least
+            # norm (the damping's choice) is the level's answer
+            v = V[:, 0] if Z is None else Z @ V[:, 0]
+            seg = _segment(cand, v, lo, hi, G, h)
+            if seg is not None:
+                return cand + v * min(max(-float(v @ cand), seg[0]), seg[1]), True
+        try:
+            z = self._level_qp(H, -g, x, Z, lo, hi, G, h, n, r)
+        except _Infeasible:
+            if fallback is None:
+                raise
+            z = fallback - x
+        return x + (z if Z is None else Z @ z), True
 
     # ------------------------------------------------------------------ pieces
+    def _lam2_eye(self, r: int) -> np.ndarray:
+        """λ²I (r, r), kept per size."""
+        e = self._eyes.get(r)
+        if e is None:
+            e = self._eyes[r] = self.damping**2 * np.eye(r)
+        return e
+
     @staticmethod
     def _level(L, k):
         if isinstance(L, Level):
@@ -296,9 +466,10 @@ class PriorityCascade:
         if A.ndim != 2 or b.shape != (A.shape[0],):
             raise InputError(f"level {k}: A must be (m, n) and b (m,), got {A.shape} and {b.shape}",
                              argument="levels", value=(A.shape, b.shape))
-        sw = np.ones(A.shape[0]) if w is None else np.sqrt(np.broadcast_to(np.asarray(w, dtype=float),
+        sw = None if w is None else np.sqrt(np.broadcast_to(np.asarray(w, dtype=float),
                                                                             (A.shape[0],)))
-        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b)) and np.all(np.isfinite(sw))):
+        finite = np.all(np.isfinite(A)) and np.all(np.isfinite(b))
+        if not (finite and (sw is None or np.all(np.isfinite(sw)))):
             raise InputError(f"level {k}: A, b and the weights must be finite", argument="levels",
                              value=k)
         return A, b, sw
@@ -367,7 +538,7 @@ class PriorityCascade:
                 bu = np.ascontiguousarray(d, dtype=float)
                 bl = np.full(d.shape[0], -_BIG)
             sense = np.zeros(bu.shape[0], dtype=np.int32)
-            Cc = np.ascontiguousarray(C, dtype=float) if C.shape[0] else np.zeros((0, r))
+            Cc = np.array(C, dtype=float) if C.shape[0] else np.zeros((0, r))  # (daqp needs a writable copy)
             x, _, flag, _ = daqp.solve(np.ascontiguousarray(H), np.ascontiguousarray(f, dtype=float), Cc,
                                        bu, bl, sense)
             return np.asarray(x, dtype=float) if flag in (1, 2) else None
@@ -386,3 +557,82 @@ class PriorityCascade:
         except Exception:  # a backend's own exception types: reported as a failed level
             return None
         return None if x is None else np.asarray(x, dtype=float)
+
+
+def _residuals(levels, x: np.ndarray) -> np.ndarray:
+    """‖W_k^{1/2}(A_k q̇ − b_k)‖ of every level at q̇ = x."""
+    res = []
+    for A, b, sw in levels:
+        d = A @ x - b
+        if sw is not None:
+            d *= sw
+        res.append(math.sqrt(d.dot(d)))
+    return np.array(res)
+
+
+def _spd_solve(H: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """H⁻¹g for a symmetric positive (semi)definite H: Cholesky (LAPACK ``dposv``), the
+    least-squares answer where H is singular (λ = 0 and rank-deficient rows)."""
+    c, z, info = _dposv(H, g)
+    if info == 0:
+        return z
+    return np.linalg.lstsq(H, g, rcond=None)[0]
+
+
+def _segment(c: np.ndarray, v: np.ndarray, lo: np.ndarray, hi: np.ndarray, G: np.ndarray,
+             h: np.ndarray) -> tuple[float, float] | None:
+    """``(t_min, t_max)``: the t with ``lo ≤ c + v t ≤ hi`` and ``G (c + v t) ≤ h``, or None
+    when there is none (on Python floats: a few joints and rows)."""
+    tmin, tmax = -math.inf, math.inf
+    a = v.tolist()
+    lo_d = (lo - c).tolist()
+    hi_d = (hi - c).tolist()
+    if h.size:
+        a += (G @ v).tolist()
+        lo_d += [-math.inf] * h.shape[0]
+        hi_d += (h - G @ c).tolist()
+    for ai, li, ui in zip(a, lo_d, hi_d, strict=True):
+        if ai > _SEG_EPS:
+            tmin = max(tmin, li / ai)
+            tmax = min(tmax, ui / ai)
+        elif ai < -_SEG_EPS:
+            tmin = max(tmin, ui / ai)
+            tmax = min(tmax, li / ai)
+        elif li > 1e-12 or ui < -1e-12:
+            return None
+    return (tmin, tmax) if tmin <= tmax else None
+
+
+_SEG_EPS = 1e-12  # a direction this small along a bound counts as parallel to it
+
+
+def _null_space(M: np.ndarray, tolerance: float) -> np.ndarray:
+    """An orthonormal basis (r, r − rank) of the null space of M (m, r): the right singular
+    vectors whose singular values are below ``tolerance · max(1, σ_max)``."""
+    r = M.shape[1]
+    if M.shape[0] == 0:
+        return np.eye(r)
+    if r == 1:  # one column: its norm is its one singular value
+        s1 = math.sqrt(float(M[:, 0].dot(M[:, 0])))
+        return np.ones((1, 0 if s1 > tolerance * max(1.0, s1) else 1))
+    _, s, vt, info = _dgesdd(M, compute_uv=1, full_matrices=1)
+    if info != 0:  # pragma: no cover - LAPACK's own failure: numpy's SVD (raises LinAlgError)
+        _, s, vt = np.linalg.svd(M, full_matrices=True)
+    tol = tolerance * max(1.0, float(s[0]) if s.size else 0.0)
+    rank = int(np.count_nonzero(s > tol))
+    return vt[rank:].T
+
+
+def _owned_result(qd, residuals, qps, freedom, lo, hi, box_active, rows_active, relaxed,
+                  backend) -> CascadeResult:
+    """The `CascadeResult` of the cascade's own fresh arrays, frozen in place rather than
+    copied (``qps`` and ``freedom`` read-only already; the box is copied by `read_only` only
+    where it is writable)."""
+    for a in (qd, residuals, box_active, rows_active, relaxed):
+        a.setflags(write=False)
+    r = object.__new__(CascadeResult)
+    object.__setattr__(r, "__dict__", {"qd": qd, "residuals": residuals, "qps": qps, "freedom": freedom,
+                                       "lower": read_only(lo), "upper": read_only(hi),
+                                       "box_active": box_active, "rows_active": rows_active,
+                                       "relaxed": relaxed, "backend": backend})
+    return r

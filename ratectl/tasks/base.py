@@ -4,6 +4,7 @@ a link's frame."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -13,7 +14,7 @@ from numpy.typing import ArrayLike
 from ..arrays import read_only
 from ..checks import positive_number
 from ..errors import InputError
-from ..spatial import rigid_transform_defect
+from ..spatial import pose_error_into, rigid_transform_defect
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -72,6 +73,32 @@ class Task:
         """The task's rows ``A q̇ ≈ b`` at ``q`` (n,) of ``chain``."""
         raise NotImplementedError
 
+    # The controller's per-cycle path: the rows written into its preallocated level arrays
+    # (no `TaskRows` per task and cycle). The built-in tasks implement `_fill` and build
+    # `rows` on it; a subclass that implements `rows` alone works through these defaults.
+    def _row_count(self, chain: Chain, q: np.ndarray) -> int:
+        """How many rows the task has on ``chain`` at ``q`` (asked every cycle: cheap for the
+        built-in tasks, one `rows` call for a task that implements `rows` alone)."""
+        if self.size is not None:
+            return self.size
+        return int(self.rows(chain, q).b.shape[0])
+
+    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
+              s: float) -> float:
+        """Write the rows at ``q`` (finite, (n,) float64) scaled by ``s`` (√weight) into ``A``
+        (m, n) and ``b`` (m,), and the error into ``e`` (m,), m = `_row_count`; returns ‖e‖."""
+        r = self.rows(chain, q)
+        if r.b.shape != b.shape or r.A.shape != A.shape or r.error.shape != e.shape:
+            raise InputError(f"{self!r}: rows() gave {r.A.shape[0]} rows, {b.shape[0]} expected "
+                             f"(a task's number of rows may not change between cycles)",
+                             argument="tasks", value=self)
+        if not (np.all(np.isfinite(r.A)) and np.all(np.isfinite(r.b))):
+            raise InputError(f"{self!r}: rows() gave non-finite A or b", argument="tasks", value=self)
+        np.multiply(r.A, s, out=A)
+        np.multiply(r.b, s, out=b)
+        e[...] = r.error
+        return math.sqrt(float(e.dot(e)))
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}(priority={self.priority}, weight={self.weight:g}, gain={self.gain:g})"
 
@@ -127,7 +154,8 @@ class FrameTask(Task):
         self.link = link
         self._target: np.ndarray | None = None
         self._twist = np.zeros(6)
-        self._last: tuple[int, bytes, float, TaskRows] | None = None  # (chain id, q, gain, rows)
+        self._has_twist = False
+        self._e = np.empty(6)  # the pose error of the last fill (Position, Orientation)
 
     @property
     def has_target(self) -> bool:
@@ -139,37 +167,48 @@ class FrameTask(Task):
         return None if self._target is None else self._target.copy()
 
     def _set(self, T: np.ndarray, twist: np.ndarray | None) -> None:
-        self._last = None
         self._target = T
         self._twist = np.zeros(6)
         if twist is not None:
             self._twist[self._rows] = twist
+        self._has_twist = twist is not None
 
     def frame(self, chain: Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(pose (4, 4), Jacobian (6, n)) of the task's frame at q."""
         return chain.fk_jacobian(q, link=self.link) if self.link is not None else chain.fk_jacobian(q)
 
     def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
-        """``A = J[rows]``, ``b = ξ_ff[rows] + K · e[rows]`` with ``e`` the pose error.
+        """``A = J[rows]``, ``b = ξ_ff[rows] + K · e[rows]`` with ``e`` the pose error."""
+        m = self._row_count(chain, q)
+        A, b, e = np.empty((m, chain.dof)), np.empty(m), np.empty(m)
+        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
+        return TaskRows(A=A, b=b, error=e)
 
-        The rows of the last (chain, q) are kept until the target changes: the controller
-        reads them again for its report."""
-        from ..spatial import pose_error_into
-
+    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
+              s: float) -> float:
         if self._target is None:
             raise InputError(f"{self!r} has no target: call set_target first", argument="target",
                              value=None)
-        key = np.asarray(q, dtype=float).tobytes()
-        last = self._last
-        if last is not None and last[0] == id(chain) and last[1] == key and last[2] == self.gain:
-            return last[3]
         T, J = self.frame(chain, q)
-        e = np.empty(6)
-        pose_error_into(e, self._target, T)
         r = self._rows
-        out = TaskRows(A=J[r], b=self._twist[r] + self.gain * e[r], error=e[r])
-        self._last = (id(chain), key, self.gain, out)
-        return out
+        if r.start == 0 and r.stop == 6:  # the full pose: the error straight into e
+            ep, th = pose_error_into(e, self._target, T)
+            norm = math.sqrt(ep * ep + th * th)
+            np.multiply(e, self.gain * s, out=b)
+        elif r.stop == 3:  # the position alone: p_d − p (no rotation error to compute)
+            np.subtract(self._target[:3, 3], T[:3, 3], out=e)
+            norm = math.sqrt(float(e.dot(e)))
+            np.multiply(e, self.gain * s, out=b)
+        else:
+            e6 = self._e
+            ep, th = pose_error_into(e6, self._target, T)
+            norm = ep if r.start == 0 else th
+            e[...] = e6[r]
+            np.multiply(e, self.gain * s, out=b)
+        np.multiply(J[r], s, out=A)
+        if self._has_twist:
+            b += s * self._twist[r]
+        return norm
 
     def __repr__(self) -> str:
         link = "tool" if self.link is None else repr(self.link)

@@ -3,6 +3,7 @@ any gradient) as tasks: `Objective`, `JointCentring`, `Manipulability`."""
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -40,7 +41,18 @@ class Objective(Task):
         self.objective = objective
         self._built: dict[int, Any] = {}
 
+    def _row_count(self, chain: Chain, q: np.ndarray) -> int:
+        return chain.dof
+
     def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
+        n = chain.dof
+        A, b, e = np.empty((n, n)), np.empty(n), np.empty(n)
+        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
+        return TaskRows(A=A, b=b, error=e)
+
+    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
+              s: float) -> float:
+        """``A = I``, ``e = z(q)``, ``b = K z(q)`` (scaled by s)."""
         f = self._built.get(id(chain))
         if f is None:
             f = self._built[id(chain)] = _build(self.objective, chain)
@@ -49,7 +61,10 @@ class Objective(Task):
         if z.shape != (n,) or not np.all(np.isfinite(z)):
             raise InputError(f"the objective must return a finite ({n},) vector, got shape {z.shape}",
                              argument="objective", value=z)
-        return TaskRows(A=np.eye(n), b=self.gain * z, error=z)
+        A[...] = np.eye(n) * s
+        e[...] = z
+        np.multiply(z, self.gain * s, out=b)
+        return math.sqrt(float(z.dot(z)))
 
 
 def _build(objective: Any, chain: Chain) -> Any:

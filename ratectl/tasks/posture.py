@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -35,6 +36,7 @@ class Posture(Task):
         self._q_ref = None if q_ref is None else check_vector(q_ref, int(np.size(q_ref)), "q_ref",
                                                                "[rad or m]")
         self._joints = None if joints is None else np.asarray(joints, dtype=int).ravel()
+        self._A: tuple[tuple[int, float], np.ndarray] | None = None  # the scaled rows of I, kept
 
     @property
     def has_target(self) -> bool:
@@ -48,7 +50,8 @@ class Posture(Task):
         """Track the configuration ``q_ref`` (n,) [rad or m]."""
         self._q_ref = check_vector(q_ref, int(np.size(q_ref)), "q_ref", "[rad or m]")
 
-    def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
+    def _checked(self, chain: Chain) -> np.ndarray:
+        """q_ref, checked against the chain (its size, the joint indices)."""
         n = chain.dof
         if self._q_ref is None:
             raise InputError("Posture has no target: pass q_ref or call set_target", argument="q_ref",
@@ -56,11 +59,36 @@ class Posture(Task):
         if self._q_ref.shape != (n,):
             raise InputError(f"Posture: q_ref has {self._q_ref.size} values, the chain {n} joints",
                              argument="q_ref", value=self._q_ref)
-        e = self._q_ref - q
-        A = np.eye(n)
-        if self._joints is not None:
-            if self._joints.size and not (0 <= self._joints.min() and self._joints.max() < n):
-                raise InputError(f"Posture: joints must be indices in [0, {n}), got "
-                                 f"{self._joints.tolist()}", argument="joints", value=self._joints)
-            A, e = A[self._joints], e[self._joints]
-        return TaskRows(A=A, b=self.gain * e, error=e)
+        if self._joints is not None and self._joints.size and not (0 <= self._joints.min()
+                                                                   and self._joints.max() < n):
+            raise InputError(f"Posture: joints must be indices in [0, {n}), got "
+                             f"{self._joints.tolist()}", argument="joints", value=self._joints)
+        return self._q_ref
+
+    def _row_count(self, chain: Chain, q: np.ndarray) -> int:
+        self._checked(chain)
+        return chain.dof if self._joints is None else int(self._joints.size)
+
+    def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
+        m = self._row_count(chain, q)
+        A, b, e = np.empty((m, chain.dof)), np.empty(m), np.empty(m)
+        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
+        return TaskRows(A=A, b=b, error=e)
+
+    def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
+              s: float) -> float:
+        """``A = I`` (the rows of ``joints``), ``e = q_ref − q``, ``b = K e`` (scaled by s)."""
+        q_ref = self._checked(chain)
+        j = self._joints
+        n = chain.dof
+        if j is None:
+            np.subtract(q_ref, q, out=e)
+        else:
+            e[...] = q_ref[j] - q[j]
+        np.multiply(e, self.gain * s, out=b)
+        key = (n, s)
+        if self._A is None or self._A[0] != key:
+            rows = np.eye(n) * s
+            self._A = (key, rows if j is None else rows[j])
+        A[...] = self._A[1]
+        return math.sqrt(float(e.dot(e)))

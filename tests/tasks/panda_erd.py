@@ -32,9 +32,21 @@ def panda_chain(path: str) -> rc.Chain:
     return rc.Chain.from_urdf(path, tip="panda_hand_tcp").with_limits(amax=amax)
 
 
-#: link pairs whose convex hulls touch inside the joint range near the rest pose (the SRDF of
-#: example-robot-data disables both, reason "Default"): left out of the avoidance and the measure
-HULL_CONTACT = (("panda_link5", "panda_link7"), ("panda_link5", "panda_hand"))
+def default_overlaps(sc) -> tuple[tuple[str, str], ...]:
+    """The link pairs a `SelfCollision` model leaves out because their shapes overlap in the
+    default configuration (the Panda: link 5 with link 7 and with the hand, which the SRDF of
+    example-robot-data disables too, reason "Default"): left out of the measure as well."""
+    return tuple((a, b) for a, b, why in sc.excluded if why.startswith("overlap in the default"))
+
+
+def srdf_default_pairs(path: str) -> set[frozenset[str]]:
+    """The link pairs the package's SRDF (beside the URDF) disables with reason "Default"."""
+    import re
+
+    srdf = os.path.join(os.path.dirname(os.path.dirname(path)), "srdf", "panda.srdf")
+    text = open(srdf, encoding="utf-8").read()
+    return {frozenset(m.groups()) for m in re.finditer(
+        r'<disable_collisions link1="([^"]+)" link2="([^"]+)" reason="Default"', text)}
 
 HOME = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
 

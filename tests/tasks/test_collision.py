@@ -10,7 +10,14 @@ import pytest
 import ratectl as rc
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from panda_erd import HOME, HULL_CONTACT, PinocchioDistance, panda_chain, panda_urdf  # noqa: E402
+from panda_erd import (  # noqa: E402
+    HOME,
+    PinocchioDistance,
+    default_overlaps,
+    panda_chain,
+    panda_urdf,
+    srdf_default_pairs,
+)
 
 URDF = panda_urdf()
 pytestmark = [pytest.mark.skipif(URDF is None, reason="example-robot-data is not installed")]
@@ -26,12 +33,13 @@ def test_import_ratectl_does_not_load_coal():
 def test_self_collision_pairs_and_distances_match_pinocchio():
     pytest.importorskip("pinocchio")
     ch = panda_chain(URDF)
-    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02, exclude=HULL_CONTACT)
-    excluded = {frozenset(p[:2]) for p in sc.excluded}
-    assert frozenset(("panda_link3", "panda_link4")) in excluded  # adjacent
-    assert frozenset(("panda_link5", "panda_link7")) in excluded  # asked for
+    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02, exclude=[("panda_link1", "panda_link3")])
+    excluded = {frozenset(p[:2]): p[2] for p in sc.excluded}
+    assert "adjacent" in excluded[frozenset(("panda_link3", "panda_link4"))]
+    assert "caller" in excluded[frozenset(("panda_link1", "panda_link3"))]
+    assert "default configuration" in excluded[frozenset(("panda_link5", "panda_link7"))]
     assert "adjacent" in sc.describe()
-    pd = PinocchioDistance(URDF, exclude=HULL_CONTACT)
+    pd = PinocchioDistance(URDF, exclude=default_overlaps(sc) + (("panda_link1", "panda_link3"),))
     checked = 0
     for seed in range(12):
         q = ch.random_q(rng=seed)
@@ -40,6 +48,29 @@ def test_self_collision_pairs_and_distances_match_pinocchio():
             assert sc.distances(q).min() == pytest.approx(d, abs=1e-6)
             checked += 1
     assert checked >= 3
+
+
+def test_pairs_overlapping_in_the_default_configuration_are_the_srdf_default_pairs():
+    # the rule that leaves out the pairs whose hulls overlap in the default configuration finds,
+    # among the pairs that are not adjacent, exactly the pairs the package's own SRDF (written
+    # by MoveIt's setup assistant) disables as "Default"
+    ch = panda_chain(URDF)
+    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02)
+    adjacent = {frozenset(p[:2]) for p in sc.excluded if p[2].startswith("adjacent")}
+    found = {frozenset(p) for p in default_overlaps(sc)}
+    assert found == srdf_default_pairs(URDF) - adjacent
+    assert found  # (link 5 with link 7 and with the hand)
+    q0 = rc.collision.self_collision.default_configuration(ch)
+    assert ch.within_limits(q0)
+    # and they overlap there: checked after all with include=, their distance is negative
+    inc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02, include=sorted(tuple(p) for p in found))
+    d = inc.distances(q0)
+    for pair in found:
+        mine = [k for k, (a, b) in enumerate(inc.pair_names)
+                if frozenset((a.split("#")[0], b.split("#")[0])) == pair]
+        assert mine and d[mine].min() < 0.0
+    assert len(inc.pairs) > len(sc.pairs)
+    assert not [p for p in inc.excluded if p[2].startswith("overlap")]
 
 
 def test_sphere_obstacle_is_kept_at_the_margin_and_reported():
@@ -69,7 +100,7 @@ def test_rows_skip_only_pairs_beyond_the_influence_distance():
     # moved since) must never drop a pair that is within the influence distance: compare with
     # every pair's distance (no broad phase) along a smooth path, then after jumps
     ch = panda_chain(URDF)
-    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02, exclude=HULL_CONTACT)
+    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02)
     rng = np.random.default_rng(3)
     q_far = ch.random_q(rng=rng)
     path = [HOME + s * (q_far - HOME) for s in np.linspace(0.0, 1.0, 40)]
@@ -92,7 +123,7 @@ def test_rows_skip_only_pairs_beyond_the_influence_distance():
 def test_damper_rows_are_the_distance_rate():
     # G q̇ = −ḋ: the row against a finite difference of the distance of each near pair
     ch = panda_chain(URDF)
-    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02, exclude=HULL_CONTACT)
+    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02)
     rng = np.random.default_rng(4)
     checked = 0
     for _ in range(6):

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import ratectl as rc
@@ -147,3 +147,96 @@ def test_rows_relaxed_to_a_corner_of_the_box_still_give_a_command(seed, backend)
     assert res.relaxed[0] == pytest.approx(0.05, abs=1e-6)
     assert np.all(G @ res.qd <= h + res.relaxed + 1e-9)
     np.testing.assert_allclose(res.qd, corner, atol=1e-4)
+
+
+class _HoldJoints(rc.tasks.Task):
+    """A task that implements rows() alone: hold the first ``m`` joints still (m may change)."""
+
+    def __init__(self) -> None:
+        super().__init__(priority=0)
+        self.m = 2
+
+    def rows(self, chain, q):
+        return rc.tasks.TaskRows(A=np.eye(chain.dof)[: self.m], b=np.zeros(self.m), error=np.zeros(self.m))
+
+
+def test_a_task_with_rows_alone_is_solved_and_may_change_its_number_of_rows():
+    ch = rc.robots.panda()
+    q = 0.5 * (ch.qlim[:, 0] + ch.qlim[:, 1])
+    hold = _HoldJoints()
+    ctrl = rc.ResolvedRateController(ch, tasks=[hold, rc.tasks.Posture(q + 0.3, priority=1, gain=0.01)])
+    cmd = ctrl.step(q, dt=1e-3)
+    assert cmd.status != "halted", cmd.reason
+    assert np.abs(cmd.qd[:2]).max() < 1e-12 < np.abs(cmd.qd[2:]).min()  # held; the rest moves
+    hold.m = 4
+    cmd = ctrl.step(q, dt=1e-3)
+    assert cmd.status != "halted", cmd.reason
+    assert np.abs(cmd.qd[:4]).max() < 1e-12 < np.abs(cmd.qd[4:]).min()
+    np.testing.assert_allclose(cmd.solve.task_errors, [0.0, np.linalg.norm(0.3 * np.ones(7))])
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_residuals_without_rows_are_those_of_a_solve_without_rows(seed):
+    rng = np.random.default_rng(seed)
+    n = 7
+    levels = [(rng.normal(size=(6, n)), rng.normal(size=6), None), (np.eye(n), rng.normal(size=n), None)]
+    G, h = rng.normal(size=(3, n)), rng.uniform(-0.2, 0.2, size=3)
+    lim = _Box(n, float(rng.uniform(0.5, 3.0)))
+    c = PriorityCascade()
+    with_rows = c.solve_validated(levels, limits=lim, q=None, qd_prev=None, dt=None,
+                                  extra_inequalities=(G, h))
+    free = c.residuals_without_rows(levels, limits=lim, q=None, qd_prev=None, dt=None)
+    alone = PriorityCascade().solve([L[:2] for L in levels], limits=lim)
+    np.testing.assert_allclose(free, alone.residuals, rtol=1e-9, atol=1e-12)
+    assert np.all(with_rows.residuals[:1] >= alone.residuals[:1] - 1e-9)  # the rows only cost
+
+
+def _best_residual(A, b, lo, hi, G, h, above=(), at=None):
+    """The least ‖A q̇ − b‖ (+ ½·1e-10‖q̇‖²) under the box, the rows and, for the levels
+    ``above``, the values their rows take at ``at`` — a QP (proxqp through qpsolvers) with
+    those as equalities (an orthonormal basis of their rows, so none is redundant);
+    independent of PriorityCascade. None when the solver fails."""
+    import qpsolvers
+
+    n = lo.shape[0]
+    kw = {}
+    if above:
+        S = np.vstack(above)
+        _, sv, vt = np.linalg.svd(S)
+        B = vt[: int(np.sum(sv > 1e-9 * max(1.0, sv[0])))]
+        kw = {"A": B, "b": B @ at}
+    x = qpsolvers.solve_qp(A.T @ A + 1e-10 * np.eye(n), -A.T @ b, G, h, lb=lo, ub=hi, solver="proxqp",
+                           eps_abs=1e-10, eps_rel=0.0, **kw)
+    return None if x is None else float(np.linalg.norm(A @ x - b))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.sampled_from([(6, 3), (6, 7), (3, 7), (6, 1)]),
+       st.sampled_from([0.0, 0.05, 2.0]), st.sampled_from([0.0, 0.5, 2.0]))
+def test_the_cascade_reaches_the_textbook_cascade_residuals(seed, rows, off0, off1):
+    # the closed forms (one free direction, a line of minimisers) and the projection-first
+    # pass must give what a QP per level with the higher levels as equalities gives; each
+    # level's target is a point of the box moved by off (0: reachable within the box)
+    rng = np.random.default_rng(seed)
+    n = 7
+    m0, m1 = rows
+    centre = rng.normal(scale=0.3, size=n)
+    lo, hi = centre - rng.uniform(0.2, 1.0, size=n), centre + rng.uniform(0.2, 1.0, size=n)
+    A0, A1 = rng.normal(size=(m0, n)), rng.normal(size=(m1, n))
+    levels = [(A0, A0 @ rng.uniform(lo, hi) + off0 * rng.normal(size=m0)),
+              (A1, A1 @ rng.uniform(lo, hi) + off1 * rng.normal(size=m1)),
+              (np.eye(n), rng.normal(size=n))]
+    G = rng.normal(size=(2, n))
+    h = G @ (0.5 * (lo + hi)) + rng.uniform(0.0, 0.3, size=2)  # the box centre meets the rows
+    lim = _Box(n, 1e6)
+    lim.lower, lim.upper = np.full(n, -np.inf), np.full(n, np.inf)
+    c = PriorityCascade(backend="daqp")
+    c.box = lambda n_, *a: (lo.copy(), hi.copy())  # this step's box, as given
+    got = c.solve(levels, limits=lim, extra_inequalities=(G, h))
+    assert np.all(got.qd >= lo - 1e-9) and np.all(got.qd <= hi + 1e-9)
+    assert np.all(G @ got.qd <= h + 1e-8)
+    # each level is the best it can be given what the levels above achieve
+    for k, (A, b) in enumerate(levels):
+        best = _best_residual(A, b, lo, hi, G, h, [L[0] for L in levels[:k]], got.qd)
+        assume(best is not None)
+        assert got.residuals[k] <= best + 1e-6 * (1.0 + best)

@@ -24,7 +24,7 @@ import pytest
 import ratectl as rc
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from panda_erd import HOME, HULL_CONTACT, PinocchioDistance, panda_chain, panda_urdf  # noqa: E402
+from panda_erd import HOME, PinocchioDistance, default_overlaps, panda_chain, panda_urdf  # noqa: E402
 
 URDF = panda_urdf()
 pytestmark = [pytest.mark.skipif(URDF is None, reason="example-robot-data is not installed")]
@@ -54,8 +54,11 @@ def _pose(name):
 @pytest.fixture(scope="module")
 def panda():
     ch = panda_chain(URDF)
-    hull = PinocchioDistance(URDF, exclude=HULL_CONTACT, convex=True)
-    mesh = PinocchioDistance(URDF, exclude=HULL_CONTACT)
+    # the measure leaves out what the model leaves out (besides adjacent links): the pairs that
+    # overlap in the default configuration
+    left_out = default_overlaps(rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02))
+    hull = PinocchioDistance(URDF, exclude=left_out, convex=True)
+    mesh = PinocchioDistance(URDF, exclude=left_out)
     return ch, hull, mesh
 
 
@@ -82,7 +85,7 @@ def test_plain_servo_passes_the_hand_through_the_arm(panda, name):
 def test_self_collision_keeps_the_links_apart_and_says_when_it_holds_the_tool_back(panda, name):
     ch, hull, mesh = panda
     T = _pose(name)
-    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02, exclude=HULL_CONTACT)
+    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02)
     tool = rc.tasks.Pose(priority=0, target=T)
     ctrl = rc.ResolvedRateController(ch, tasks=[tool, rc.tasks.Posture(HOME, priority=1, gain=1.0)],
                                      collision=[sc])
@@ -109,7 +112,7 @@ def test_self_collision_keeps_the_links_apart_and_says_when_it_holds_the_tool_ba
 
 def test_a_target_inside_the_arm_is_held_at_the_margin_and_reported(panda):
     ch, hull, _ = panda
-    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02, exclude=HULL_CONTACT)
+    sc = rc.collision.SelfCollision.from_urdf(URDF, ch, margin=0.02)
     tool = rc.tasks.Position(priority=0, target=(0.0, 0.0, 0.25))  # inside link 1
     ctrl = rc.ResolvedRateController(ch, tasks=[tool, rc.tasks.Posture(HOME, priority=1, gain=1.0)],
                                      collision=[sc])
@@ -125,8 +128,11 @@ def test_a_target_inside_the_arm_is_held_at_the_margin_and_reported(panda):
     assert cmd.status == "collision-avoidance"
     assert "holds back priority level(s) [0" in cmd.reason and " mm" in cmd.reason
     assert np.linalg.norm(cmd.solve.residuals[0]) > 0.01  # the tool is short of its target
-    # the tool is held there: over the last 0.5 s it slides along the margin (the posture
-    # level still moves what the tool leaves free) but comes no nearer its target
-    gap = np.linalg.norm(np.array(tips[-250:]) - np.array([0.0, 0.0, 0.25]), axis=1)
-    assert gap[-1] > gap[0] - 2e-3
+    # the tool is held outside link 1: the target is on its axis, and the tool stays further
+    # than 6 cm from it all along (a servo without avoidance reaches it; here it ends 7-8 cm
+    # away, beside link 1's hull). It may slide slowly along the margin (the posture level
+    # still moves what the tool leaves free: when it slides depends on rounding), but it is
+    # nearly still over the last 0.5 s
+    gap = np.linalg.norm(np.array(tips) - np.array([0.0, 0.0, 0.25]), axis=1)
+    assert gap.min() > 0.06
     assert np.linalg.norm(np.ptp(np.array(tips[-250:]), axis=0)) < 1e-2
