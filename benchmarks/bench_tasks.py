@@ -139,43 +139,41 @@ class Case:
                 minimum_distance_from_collisions=sc.margin, collision_detection_distance=sc.influence))
 
     def run_ratectl(self, clock):
+        """The ratectl loop: the tool task's target set, then ``ctrl.step(q, dt)`` timed."""
         ctrl, tool, dt = self.ctrl, self.tool, self.dt
         ctrl.reset()
-        q = HOME.copy()
-        n = len(self.targets)
-        times, err = np.empty(n), np.empty(n)
-        dmin = np.inf
-        with GcCounter() as gcc:
-            for k in range(n):
-                tool.set_target(self.targets[k])
-                t0 = clock()
-                cmd = ctrl.step(q, dt=dt)
-                times[k] = clock() - t0
-                q = cmd.q_next
-                err[k] = np.linalg.norm(self.chain.fk(q)[:3, 3] - self.targets[k][:3, 3])
-                if self.sc is not None:
-                    dmin = min(dmin, float(self.sc.distances(q).min()))
-        return times * 1e6, gcc.counts, float(np.median(err)), dmin, float(err[-1])
+        return self._run(clock, tool.set_target, lambda q: ctrl.step(q, dt=dt), lambda q, cmd: cmd.q_next)
 
     def run_mink(self, clock):
+        """The mink loop: the FrameTask's target set, then ``update(q)`` + ``solve_ik`` timed."""
         mink, conf, dt = self.mink, self.conf, self.dt
+
+        def step(q):
+            conf.update(q)
+            return mink.solve_ik(conf, self.mtasks, dt, "daqp", damping=1e-3, limits=self.mlimits)
+
+        return self._run(clock, lambda T: self.mtool.set_target(mink.SE3.from_matrix(T)), step,
+                         lambda q, v: q + v * dt)
+
+    def _run(self, clock, set_target, step, advance):
+        """One loop over the targets from HOME: ``set_target(T_k)``, ``r = step(q)`` timed,
+        ``q = advance(q, r)``; returns the per-call times [µs], the gc counts, the median and
+        last tool distance from the target [m] and the smallest link distance [m]."""
         q = HOME.copy()
         n = len(self.targets)
         times, err = np.empty(n), np.empty(n)
         dmin = np.inf
         with GcCounter() as gcc:
             for k in range(n):
-                self.mtool.set_target(mink.SE3.from_matrix(self.targets[k]))
+                set_target(self.targets[k])
                 t0 = clock()
-                conf.update(q)
-                v = mink.solve_ik(conf, self.mtasks, dt, "daqp", damping=1e-3, limits=self.mlimits)
+                r = step(q)
                 times[k] = clock() - t0
-                q = q + v * dt
+                q = advance(q, r)
                 err[k] = np.linalg.norm(self.chain.fk(q)[:3, 3] - self.targets[k][:3, 3])
                 if self.sc is not None:
                     dmin = min(dmin, float(self.sc.distances(q).min()))
         return times * 1e6, gcc.counts, float(np.median(err)), dmin, float(err[-1])
-
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -99,6 +99,14 @@ class Task:
         e[...] = r.error
         return math.sqrt(float(e.dot(e)))
 
+    def _filled_rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
+        """`rows` of a task that implements `_fill`: its rows at ``q`` written into fresh
+        arrays (unscaled)."""
+        m = self._row_count(chain, q)
+        A, b, e = np.empty((m, chain.dof)), np.empty(m), np.empty(m)
+        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
+        return TaskRows(A=A, b=b, error=e)
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}(priority={self.priority}, weight={self.weight:g}, gain={self.gain:g})"
 
@@ -179,10 +187,7 @@ class FrameTask(Task):
 
     def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
         """``A = J[rows]``, ``b = ξ_ff[rows] + K · e[rows]`` with ``e`` the pose error."""
-        m = self._row_count(chain, q)
-        A, b, e = np.empty((m, chain.dof)), np.empty(m), np.empty(m)
-        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
-        return TaskRows(A=A, b=b, error=e)
+        return self._filled_rows(chain, q)
 
     def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
               s: float) -> float:

@@ -45,10 +45,8 @@ class Objective(Task):
         return chain.dof
 
     def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
-        n = chain.dof
-        A, b, e = np.empty((n, n)), np.empty(n), np.empty(n)
-        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
-        return TaskRows(A=A, b=b, error=e)
+        """``A = I``, ``b = K z(q)``."""
+        return self._filled_rows(chain, q)
 
     def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
               s: float) -> float:

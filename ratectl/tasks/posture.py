@@ -70,10 +70,8 @@ class Posture(Task):
         return chain.dof if self._joints is None else int(self._joints.size)
 
     def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
-        m = self._row_count(chain, q)
-        A, b, e = np.empty((m, chain.dof)), np.empty(m), np.empty(m)
-        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
-        return TaskRows(A=A, b=b, error=e)
+        """``A = I`` (the rows of ``joints``), ``b = K (q_ref − q)``."""
+        return self._filled_rows(chain, q)
 
     def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
               s: float) -> float:
