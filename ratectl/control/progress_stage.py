@@ -79,16 +79,11 @@ class ProgressStage:
         return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0)
 
     def sigma_for_watch(self, sigma: Any) -> float | None:
-        """σ_min of a direction solve (its result, or the ``sigma`` of `direction_qd`) when
-        it may be below the watch threshold, else None (decided without computing σ_min
-        where the solver can, `sigma_at_least`)."""
-        if not hasattr(sigma, "sigma_min") or isinstance(sigma, SolveResult):
-            above, smin = sigma_at_least(sigma, self.bounds.watch_sigma)
-        else:  # a result that is not a `SolveResult` (a solver of the user's own)
-            smin = float(sigma.sigma_min)
-            above = smin >= self.bounds.watch_sigma
+        """σ_min of a direction solve (the ``sigma`` of `direction_qd`) when it may be below
+        the watch threshold, else None (decided without computing σ_min where the solver
+        can, `sigma_at_least`)."""
+        above, smin = sigma_at_least(sigma, self.bounds.watch_sigma)
         return None if above else smin
-
 
     def flags(self, cyc: Cycle, q, caps, moving: bool, at_bound: bool) -> None:
         """Status flags and reasons of a progress bound (approach or jog)."""

@@ -582,19 +582,20 @@ def min_norm_direction(J: np.ndarray, d: np.ndarray,
 
 def sigma_at_least(sigma: Any, threshold: float) -> tuple[bool, float]:
     """``(σ_min ≥ threshold, σ_min or NaN when it was not needed)`` for the ``sigma`` of
-    `Solver.solve_direction`: a `SolveResult`, a lazy σ (decided from its reference where
-    it can, `_LazySigma.certainly_at_least`) or a number."""
+    `Solver.solve_direction`: a lazy σ (decided from its reference where it can,
+    `_LazySigma.certainly_at_least`), a solve result (its ``sigma_min_at_least`` where it
+    has one, as a `SolveResult` does, else its ``sigma_min``) or a number."""
     if type(sigma) is _LazySigma:
         if sigma.certainly_at_least(threshold):
             return True, math.nan
         v = sigma.value()
-        return v >= threshold, v
-    if isinstance(sigma, SolveResult):
-        if sigma.sigma_min_at_least(threshold):
+    elif hasattr(sigma, "sigma_min"):
+        at_least = getattr(sigma, "sigma_min_at_least", None)
+        if at_least is not None and at_least(threshold):
             return True, math.nan
         v = float(sigma.sigma_min)
-        return v >= threshold, v
-    v = float(sigma)
+    else:
+        v = float(sigma)
     return v >= threshold, v
 
 
