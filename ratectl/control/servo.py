@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import RatectlError, SingularityError
-from ..solvers.base import SolveResult
+from ..solvers.base import SolveResult, result_with_qd
 from ..solvers.ik import ik_iterate
 from ..spatial import pose_error_into
 from .approach import JointLine, StraightApproach
@@ -86,9 +86,10 @@ class Servo:
     def step(self, cyc: Cycle, q, dt, target) -> Command | None:
         """The straight approach (`StraightApproach`): fk and J at q, the segment (a new one
         when the target changed), one period of the progress within the joint limits mapped
-        onto it (`ProgressLimits`), and the solve of ξ = ṡ̄·d + K·e_ref, the mean progress
-        speed of the period along the direction plus feedback on the error to the reference
-        pose T(s)."""
+        onto it (`ProgressLimits`), and the command q̇ = ṡ̄·w + solver(K·e_ref) for the twist
+        ξ = ṡ̄·d + K·e_ref: the mean progress speed of the period along the direction's own
+        answer w (`Solver.solve_direction`, exact where J is regular) plus the solved feedback
+        on the error to the reference pose T(s), both without the limits (the limiter's)."""
         T, J = self.chain.fk_jacobian(q)
         cyc.J = J
         cyc.target = True
@@ -149,12 +150,18 @@ class Servo:
                 # period (ṡ₁ with s̈₁), where q + q̇·dt needs the period's mean speed
                 speed = ap.sd
             ap.w_prev = w
-        cyc.xi = ap.d * speed + self.gain * e_ref
-        # without the solver's box (a box clips joints one by one and turns the tool off its
-        # line): the progress is already within the limits, and the limiter scales the rest
+        # the feedback solved without the limits (a box clips joints one by one and turns the
+        # tool off its line): the progress is already within them, the limiter scales the rest
+        cyc.xi = self.gain * e_ref
         halt = self._solve(cyc, q, dt, None, bounded=False)
         if halt is not None:
             return halt
+        if w is not None and speed != 0.0:
+            # the progress along the line on its own direction w (exact where J is regular),
+            # not the solver's answer for ṡ·d, which a constant damping shrinks and turns
+            cyc.xi = cyc.xi + ap.d * speed
+            cyc.qd = cyc.qd + w * speed
+            cyc.res = result_with_qd(cyc.res, cyc.J, cyc.xi, cyc.qd)
         if w is not None and self.filter is not None:
             # the reference's acceleration s̈·w + ṡ·ẇ, which the filter then meets without lag
             cyc.qdd_ff = w * ap.sdd if w_rate is None else w * ap.sdd + w_rate * ap.sd

@@ -64,8 +64,9 @@ class SolveStage:
     def solve(self, cyc: Cycle, q, dt, qd_ff, *, bounded: bool = True) -> Command | None:
         """q̇ = q̇_ff + solver(J, ξ); a solver failure or a non-finite answer halts (returns
         the halt's Command), otherwise fills ``cyc.qd``, ``cyc.res`` and the status lists.
-        ``bounded=False``: a limit-enforcing solver answers without its bounds (the servo's
-        command, whose direction a box must not turn: the limiter then scales it)."""
+        ``bounded=False``: the solver answers without the limits (the servo's feedback,
+        whose direction no box or velocity policy may turn: the limiter then scales the
+        whole command)."""
         # with smoothing the filter bounds the acceleration (and the jerk) of what is
         # commanded; a solver's acceleration box around the filter's lagging output would
         # throttle it (the QP's answer at q̇_f ± amax·dt keeps Ruckig's target within one
@@ -73,7 +74,7 @@ class SolveStage:
         qd_prev = self._m.qd if self.filter is None else None
         limits = self.limits
         enforced = self._enforcing
-        if enforced and not bounded:
+        if not bounded:
             limits = qd_prev = None
             enforced = False
         try:

@@ -289,6 +289,19 @@ SolveResult.sigma_min = property(_get_sigma, _SIGMA_SLOT.__set__,  # type: ignor
                                  doc="σ_min of (weighted) J (computed lazily by DLS and the QP).")
 
 
+def result_with_qd(res: SolveResult, J: np.ndarray, xi: np.ndarray, qd: np.ndarray) -> SolveResult:
+    """``res`` for another q̇ (n,) of the twist ``xi`` (m,): q̇ = ``qd``, achieved J q̇ and the
+    task error ξ − J q̇ recomputed; damping, σ_min (still lazy where it was), method, policy,
+    bounds and info kept. For a command made of a solve and a part added to it (the servo's
+    progress along its exact direction on top of the solved feedback)."""
+    r = _new(SolveResult)
+    achieved = J.dot(qd)
+    _store(r, qd.copy(), achieved, xi - achieved, res.damping, _SIGMA_SLOT.__get__(res, SolveResult),
+           res.method, res.velocity_policy, res.velocity_scale, res.bound, res.limits_active, res.fallback,
+           res.info)
+    return r
+
+
 def _make_result(qd, J, xi, damping, sigma, method, policy, scale, bound, active, fallback, info):
     achieved = J @ qd
     return SolveResult(qd=qd, achieved=achieved, task_error=xi - achieved, damping=damping,
