@@ -123,7 +123,7 @@ class JogStage:
         pr = self._progress
         caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(sig_w), w_prime=w_prime,
                               q_lead=self._m.q_lead,
-                              exact=lambda q2: pr.exact_direction(q2, twist, (q, J)))
+                              exact=lambda q2, share=True: pr.exact_direction(q2, twist, (q, J), share=share))
         c_prev = jog.c
         c = jog.advance(caps, dt)
         jog.w_prev = w

@@ -176,9 +176,10 @@ class ProgressLimits:
                 its velocity command still gets there once the command stops, so a joint's
                 room to its limit is measured from whichever of q and q_lead is nearer the
                 limit.
-            exact: ``f(q) -> (σ_min, share)``: σ_min(J) at any q and the share of the
-                direction's exact joint speed |J⁺d|² in the weakest direction, for the
-                singularity look-ahead (None: no singularity bound).
+            exact: ``f(q, share=True) -> (σ_min, share)``: σ_min(J) at any q and the share
+                of the direction's exact joint speed |J⁺d|² in the weakest direction (NaN
+                with ``share=False``: σ_min alone), for the singularity look-ahead (None: no
+                singularity bound).
         """
         wl = w.tolist()
         inf = math.inf
@@ -283,7 +284,7 @@ class ProgressLimits:
         if not norm > 0.0:
             return
         ds = 1e-4 / norm  # a 1e-4 rad (or m) joint step along w
-        sigma_ahead, _ = exact(q + w * ds)
+        sigma_ahead, _ = exact(q + w * ds, share=False)
         drop = sigma - sigma_ahead
         if not drop > _SIGMA_NOISE * (1.0 + sigma):
             return  # moving away from the singularity, or along it (σ_min unchanged): never bounded

@@ -9,9 +9,11 @@ of singularity once per encounter with `ratectl.singularity.analyze`).
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from scipy.linalg import lapack as _lapack
 
 from ..singularity import analyze
 from ..solvers.base import Solver, SolveResult, sigma_at_least
@@ -27,6 +29,7 @@ __all__ = ["ProgressStage"]
 
 _SHARE = 0.5  # share of amax (and jmax) the progress of an approach or a jog may use itself
 _KIND_NEAR = 0.5  # the σ band in which `analyze` names the singularity a progress stops before
+_dgesdd = _lapack.dgesdd
 
 
 class ProgressStage:
@@ -64,17 +67,27 @@ class ProgressStage:
         return SolveResult(qd=w.copy(), achieved=achieved, task_error=d - achieved, damping=damping,
                            sigma_min=sigma, method=str(getattr(self.solver, "method", "solver")))
 
-    def exact_direction(self, q: np.ndarray, d: np.ndarray, J_at: tuple | None = None
-                        ) -> tuple[float, float]:
-        """(σ_min, share) at ``q`` from one SVD J = U S Vᵀ: σ_min(J), and the share of the
-        exact joint speed |J⁺d|² = Σ (uᵢ·d / σᵢ)² that goes into the weakest direction
-        (the singularity look-ahead of `ProgressLimits`: is ``d`` being lost?).
-        ``J_at`` = (q₀, J(q₀)): the cycle's own Jacobian, used when ``q`` is q₀."""
+    def exact_direction(self, q: np.ndarray, d: np.ndarray, J_at: tuple | None = None, *,
+                        share: bool = True) -> tuple[float, float]:
+        """(σ_min, share) at ``q`` from one SVD J = U S Vᵀ (LAPACK's dgesdd): σ_min(J), and
+        the share of the exact joint speed |J⁺d|² = Σ (uᵢ·d / σᵢ)² that goes into the
+        weakest direction (the singularity look-ahead of `ProgressLimits`: is ``d`` being
+        lost?). ``J_at`` = (q₀, J(q₀)): the cycle's own Jacobian, used when ``q`` is q₀.
+        ``share=False``: σ_min alone (singular values without vectors), share NaN."""
         J = J_at[1] if J_at is not None and q is J_at[0] else self.chain.jacobian(q)
-        U, S, Vt = np.linalg.svd(J, full_matrices=False)
-        if S.shape[0] < 6 or not S[-1] > S[0] * 1e-12:
+        if J.shape[1] < 6:
             return 0.0, 1.0
-        c = (U.T @ d) / S
+        if not share:
+            _, S, _, info = _dgesdd(J, compute_uv=0)
+            if info != 0:
+                S = np.linalg.svd(J, compute_uv=False)
+            return (float(S[-1]) if S[-1] > S[0] * 1e-12 else 0.0), math.nan
+        U, S, _, info = _dgesdd(J, full_matrices=0)
+        if info != 0:
+            U, S, _ = np.linalg.svd(J, full_matrices=False)
+        if not S[-1] > S[0] * 1e-12:
+            return 0.0, 1.0
+        c = d.dot(U) / S
         total = float(c @ c)
         return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0)
 

@@ -138,9 +138,10 @@ class Servo:
                 return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
             if ap.end_accel == math.inf and not self._pursuit and ap.settled:
                 self._end_bounds(ap, q, target, dt)  # (a target that moves every period: not yet)
-            caps = self._progress.bounds.caps(q, w, dt=dt, sigma=self._progress.sigma_for_watch(sig_w),
-                                       w_prime=ap.w_prime(w),
-                                     exact=lambda q2: self._progress.exact_direction(q2, ap.d, (q, J)))
+            pr = self._progress
+            caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(sig_w), w_prime=ap.w_prime(w),
+                                  exact=lambda q2, share=True: pr.exact_direction(q2, ap.d, (q, J),
+                                                                                  share=share))
             w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother
             # (the room ahead is measured from the arm; the reference leads it along the line)
             speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max),
