@@ -35,6 +35,7 @@ __all__ = ["Progress", "StraightApproach", "JointLine"]
 
 _PLANNED = 0.5  # a stop is planned at this share of the progress's acceleration bound
 _URGENT = 2.0  # a late stop brakes with up to this multiple of the bound (all of amax at η = 1/2)
+AT_BLOCK = 1e-5  # [progress units ~ m]: a progress this close to a block, and creeping, stands at it
 
 
 def _rows_times_transpose(A: list[list[float]], B: list[list[float]]) -> list[list[float]]:

@@ -415,9 +415,10 @@ class ResolvedRateController:
 
 
 def _damping_starts(solver: Any) -> float:
-    """The σ_min below which ``solver`` damps a direction (`Solver.solve_direction`): an
-    adaptive solver's ``epsilon``; a solver with a constant λ (``damping``: the QP, DLS)
-    gives the exact direction down to σ_min = λ; 0 for the others."""
+    """The σ_min below which ``solver`` damps what it solves (the feedback, a twist with a
+    target): an adaptive solver's ``epsilon``, a constant λ (``damping``: the QP, DLS); 0
+    for the others. A jog or an approach stops there before a singularity by default (its
+    direction, `Solver.solve_direction`, stays exact below, with joint speeds ∝ 1/σ_min)."""
     for name in ("epsilon", "damping"):
         v = getattr(solver, name, None)
         if isinstance(v, int | float) and v > 0.0:

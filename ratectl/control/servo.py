@@ -22,7 +22,7 @@ from ..errors import RatectlError, SingularityError
 from ..solvers.base import SolveResult, result_with_qd
 from ..solvers.ik import ik_iterate
 from ..spatial import pose_error_into
-from .approach import JointLine, StraightApproach
+from .approach import AT_BLOCK, JointLine, StraightApproach
 from .cycle import Cycle, Motion, _finite_sum, _same
 
 if TYPE_CHECKING:
@@ -33,9 +33,16 @@ if TYPE_CHECKING:
 
 __all__ = ["Servo"]
 
-_AT_BLOCK = 1e-5  # [progress units ~ m]: an approach at rest this close to a block stands at it
 _AT_LIMIT = 1e-4  # [rad or m]: a joint-line goal this close to the limit the joint stands at stays put
 _LAG_MAX = 0.02  # [m, weighted]: the approach's progress stops when the arm is this far behind it
+
+
+def _creeping(caps, speed: float, dt: float) -> bool:
+    """A progress that creeps into a singularity's block by less than `AT_BLOCK` per period
+    stands at it: that room, half the first-order distance to the σ_min of the stop, is
+    estimated anew each period and shrinks with the progress that creeps into it, which
+    then never quite comes to rest (a joint limit's room is exact: at rest there)."""
+    return caps.room_by == "singularity" and speed * dt <= AT_BLOCK
 
 
 class Servo:
@@ -171,7 +178,7 @@ class Servo:
             moving = ap.sd > 0.0 or speed > 0.0
             cyc.approach = ap.s / ap.L
             if ap.blocked:  # the stop is planned before a block (a limit, a singularity)
-                at_block = not moving and ap.room_left <= _AT_BLOCK
+                at_block = ap.room_left <= AT_BLOCK and (not moving or _creeping(caps, speed, dt))
                 caps.binding, caps.reason = caps.room_by, caps.room_reason
                 block: str | None = caps.room_reason if at_block else ""
                 if block and self.blocked == "joint-space":

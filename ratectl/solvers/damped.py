@@ -11,7 +11,18 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError, SingularityError
-from .base import Solver, _dgesdd, _dot, _dposv, _dpotrf, _dsyev, _LazySigma, _positive, min_norm_direction
+from .base import (
+    Solver,
+    _dgesdd,
+    _dot,
+    _dposv,
+    _dpotrf,
+    _dsyev,
+    _LazySigma,
+    _positive,
+    exact_direction_floor,
+    min_norm_direction,
+)
 from .exact import _svd
 
 __all__ = ['DLS', 'AdaptiveDLS', 'SDLS', 'adaptive_damping']
@@ -29,6 +40,22 @@ def adaptive_damping(sigma: ArrayLike, *, epsilon: float, max_damping: float):
     r = np.clip(s / epsilon, 0.0, 1.0)
     lam = max_damping * np.sqrt(1.0 - r * r)
     return float(lam) if lam.ndim == 0 else lam
+
+
+def exact_direction(solver: Solver, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
+                    dt: float | None) -> tuple[np.ndarray, Any, float]:
+    """`Solver.solve_direction` of the damped solvers: with W J the weighted J (the task and
+    joint weights), the exact direction J w = d of least W_q-norm (`min_norm_direction`)
+    wherever σ_min(W J) is above `exact_direction_floor`, returned with damping 0 and σ_min
+    (lazily); below, the solver's own answer (`Solver.solve_direction`, through ``solve``)."""
+    Jw, dw = solver._apply_weights(J, d) if solver._weighted else (J, d)
+    m, n = Jw.shape
+    sigma = _LazySigma(_dot(Jw, Jw.T) if m <= n else _dot(Jw.T, Jw))
+    if sigma.value() >= exact_direction_floor(J=Jw):
+        w = min_norm_direction(Jw, dw)
+        if w is not None:
+            return (w if solver._isw is None else w * solver._isw), sigma, 0.0
+    return Solver.solve_direction(solver, J, d, q=q, dt=dt)
 
 
 def _gain_bound_adaptive(epsilon: float, lam_max: float) -> float:
@@ -72,17 +99,10 @@ class DLS(Solver):
 
     def solve_direction(self, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
                         dt: float | None) -> tuple[np.ndarray, Any, float]:
-        """`Solver.solve_direction`: where σ_min ≥ λ the exact direction
-        (`min_norm_direction`: J w = d, the least-norm w), not turned by the damping, which
-        shrinks each singular direction by σ²/(σ² + λ²) on its own; below, the DLS answer."""
-        Jw, dw = self._apply_weights(J, d) if self._weighted else (J, d)
-        m, n = Jw.shape
-        sigma = _LazySigma(_dot(Jw, Jw.T) if m <= n else _dot(Jw.T, Jw))
-        if sigma.value() >= self.damping:
-            w = min_norm_direction(Jw, dw)
-            if w is not None:
-                return (w if self._isw is None else w * self._isw), sigma, 0.0
-        return super().solve_direction(J, d, q=q, dt=dt)
+        """`Solver.solve_direction`: the exact direction wherever J has full rank
+        (`exact_direction`), not turned by the damping, which shrinks each singular
+        direction by σ²/(σ² + λ²) on its own; at a singularity, the DLS answer."""
+        return exact_direction(self, J, d, q=q, dt=dt)
 
     def _raw(self, J, xi):
         m, n = J.shape
@@ -168,6 +188,13 @@ class AdaptiveDLS(Solver):
     def __repr__(self) -> str:
         return (f"AdaptiveDLS(epsilon={self.epsilon!r}, max_damping={self.max_damping!r}, "
                 f"mode={self.mode!r})")
+
+    def solve_direction(self, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
+                        dt: float | None) -> tuple[np.ndarray, Any, float]:
+        """`Solver.solve_direction`: the exact direction wherever J has full rank
+        (`exact_direction`: the schedule's damping would shrink each singular direction
+        below ε on its own, turning the motion); at a singularity, the damped answer."""
+        return exact_direction(self, J, d, q=q, dt=dt)
 
     def gain_bound(self) -> float:
         """sup ‖q̇‖/‖ξ‖ over all J for the σ modes (see the class docstring)."""

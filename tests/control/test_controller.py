@@ -67,15 +67,35 @@ def test_control_law_feed_forward_plus_feedback(ur5e):
 
 
 def test_damped_near_the_wrist_singularity_names_the_kind(ur5e):
+    """A twist resolved with a pose feedback (not a jog) is damped near the wrist
+    singularity, and the command names the kind."""
     ctrl = rc.ResolvedRateController(ur5e)
     q = Q_WRIST.copy()
     q[4] = 1e-3
-    cmd = ctrl.step(q, twist=np.array([0.0, 0.05, 0.0, 0.0, 0.0, 0.0]), dt=1e-3)
+    cmd = ctrl.step(q, target=ur5e.fk(q), twist=np.array([0.0, 0.05, 0.0, 0.0, 0.0, 0.0]), dt=1e-3)
     assert cmd.status == "damped" and cmd.damping > 0 and cmd.sigma_min < 0.05
     assert np.linalg.norm(cmd.task_error) > 0  # damping gave up some task velocity
     assert cmd.kind == "wrist"
     assert "wrist" in str(cmd)
     assert np.all(np.abs(cmd.qd) <= ur5e.vmax * (1 + 1e-12))
+
+
+def test_a_jog_near_the_wrist_singularity_follows_its_twist_exactly_and_slower(ur5e):
+    """A jog at σ_min ≈ 3e-4 (q5 = 1 mrad) along y, which does not lower σ_min: the tool
+    moves along y only (the exact direction, |w| ∝ 1/σ_min, never the damped answer,
+    which turns it), slowed so that every joint stays within vmax and amax."""
+    ctrl = rc.ResolvedRateController(ur5e)
+    q = Q_WRIST.copy()
+    q[4] = 1e-3
+    twist = np.array([0.0, 0.05, 0.0, 0.0, 0.0, 0.0])
+    for _ in range(300):
+        cmd = ctrl.step(q, twist=twist, dt=1e-3)
+        tool = ur5e.jacobian(q) @ cmd.qd
+        assert tool[1] >= 0.0 and np.linalg.norm(np.delete(tool, 1)) <= 1e-9 * (1e-3 + tool[1])
+        assert np.all(np.abs(cmd.qd) <= ur5e.vmax * (1 + 1e-12))
+        assert cmd.damping == 0.0 and cmd.kind == "wrist"
+        q = cmd.q_next
+    assert 0.0 < tool[1] < 0.05 * twist[1]  # well below the twist: the wrist joints spin instead
 
 
 def test_exact_inverse_at_a_singularity_halts_instead_of_raising(ur5e):

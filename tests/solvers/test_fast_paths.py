@@ -84,7 +84,8 @@ def test_qp_controller_flags_damped_exactly_below_singular_sigma(ur5e_wrist_line
     ctrl = rc.ResolvedRateController(arm, solver=S.QP(), singular_sigma=0.05)
     seen = set()
     for q in run.q:
-        cmd = ctrl.step(q, twist=np.array([0.0, 0.05, 0.0, 0.0, 0.0, 0.0]), dt=2e-3)
+        # (a twist with a pose feedback: the QP's answer; a jog alone follows the exact direction)
+        cmd = ctrl.step(q, target=arm.fk(q), twist=np.array([0.0, 0.05, 0.0, 0.0, 0.0, 0.0]), dt=2e-3)
         below = cmd.sigma_min < ctrl.singular_sigma
         assert ("damped" in cmd.flags) == below
         assert cmd.sigma_min == pytest.approx(rc.analyze(arm, q).sigma_min, rel=1e-9, abs=1e-7)

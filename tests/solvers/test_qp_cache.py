@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import ratectl as rc
-from ratectl.solvers.base import sigma_at_least
+from ratectl.solvers.base import exact_direction_floor, sigma_at_least
 
 
 @settings(max_examples=60, deadline=None)
@@ -39,11 +39,11 @@ def test_a_second_solve_with_the_same_J_equals_a_fresh_solve(seed, limited):
        st.sampled_from(["QP", "DLS"]))
 def test_solve_direction_is_exact_where_J_is_regular(seed, kind, name):
     """`Solver.solve_direction` (the jog's and the servo's direction per unit of progress):
-    where σ_min ≥ λ a constant-damping solver (QP, DLS) answers exactly — J w = d, the least
-    W_q-norm w (the regulariser would shrink each singular direction on its own and turn the
-    motion); below λ, or with an objective, it is what ``solve`` gives without limits, bit
-    for bit. Its σ says the same as the result's σ_min, and a following limited solve with
-    the same J still equals a fresh one."""
+    wherever J has full rank (σ_min above `exact_direction_floor`) a constant-damping solver
+    (QP, DLS) answers exactly — J w = d, the least W_q-norm w (the regulariser would shrink
+    each singular direction on its own and turn the motion); below, or with an objective,
+    it is what ``solve`` gives without limits, bit for bit. Its σ says the same as the
+    result's σ_min, and a following limited solve with the same J still equals a fresh one."""
     rng = np.random.default_rng(seed)
     arm = rc.robots.ur5e()
     q = rng.uniform(-2, 2, 6)
@@ -68,7 +68,10 @@ def test_solve_direction_is_exact_where_J_is_regular(seed, kind, name):
     assert w.flags.writeable
     rows = [0, 1, 2] if kind == "rows" else list(range(6))
     smin = np.linalg.svd(J[rows], compute_uv=False)[-1]
-    exact = kind != "objective" and smin >= solver.damping * (1 + 1e-9) and solver.damping > 0
+    # exact wherever the (row-selected) J has full rank: σ_min above the floor
+    floor = exact_direction_floor(J=J[rows])
+    # (the undamped QP has no positive-definite P, hence no shortcut: its answer is `solve`'s)
+    exact = kind not in ("objective", "undamped") and smin >= floor * (1 + 1e-6)
     if exact:
         assert damping == 0.0
         # J w = d on the rows, and w the least W_q-norm solution: w = W_q⁻¹ Jᵀ y
@@ -76,7 +79,7 @@ def test_solve_direction_is_exact_where_J_is_regular(seed, kind, name):
         W = np.diag(1 / wq) if kind == "weighted" else np.eye(6)
         want_w = W @ J[rows].T @ np.linalg.solve(J[rows] @ W @ J[rows].T, d[rows])
         assert np.allclose(w, want_w, rtol=1e-7, atol=1e-9)
-    elif kind == "objective" or smin < solver.damping * (1 - 1e-9):
+    elif kind == "objective" or smin < floor * (1 - 1e-6):
         assert w.tolist() == want.qd.tolist() and damping == want.damping
     for threshold in (1e-3, 0.05, 0.2, float(want.sigma_min) * (1 + 1e-9)):
         above, value = sigma_at_least(sig, threshold)

@@ -25,6 +25,7 @@ from ..base import (
     _owned_result,
     _positive,
     _SigmaReference,
+    exact_direction_floor,
     min_norm_direction,
     sigma_at_least,
 )
@@ -198,17 +199,19 @@ class QP(Solver):
 
     def solve_direction(self, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
                         dt: float | None) -> tuple[np.ndarray, Any, float]:
-        """`Solver.solve_direction`: where σ_min(W J) ≥ λ (the damping), the exact direction
-        (`min_norm_direction`: J w = d, the least W_q-norm w), so that a motion along it
-        (a jog, the servo's line) is not turned by the regulariser λ²‖q̇‖², which shrinks
-        each singular direction by σ²/(σ² + λ²) on its own; below, the QP's unconstrained
-        minimiser w = P⁻¹b (b = JᵀW d, plus the objective's term), as `solve` without
-        limits. With an objective always the latter (its pull is part of the answer).
-        Returned with σ_min(W J) lazily; P and its factor stay for the cycle's command (a
-        second solve with the same J). Inputs as for `solve_validated`."""
+        """`Solver.solve_direction`: wherever W J has full rank (σ_min(W J) above
+        `exact_direction_floor`), the exact direction (`min_norm_direction`: J w = d, the
+        least W_q-norm w), so that a motion along it (a jog, the servo's line) is not turned
+        by the regulariser λ²‖q̇‖², which shrinks each singular direction by σ²/(σ² + λ²) on
+        its own (near a singularity |w| grows as 1/σ_min: the joint limits then slow the
+        progress along it); below, the QP's unconstrained minimiser w = P⁻¹b (b = JᵀW d,
+        plus the objective's term), as `solve` without limits. With an objective always
+        the latter (its pull is part of the answer). Returned with σ_min(W J) lazily; P
+        and its factor stay for the cycle's command (a second solve with the same J).
+        Inputs as for `solve_validated`."""
         if self.shortcut and self._pd:
             sigma, P, b = self._objective_terms(J, d, q, _checked_entries(J, d))
-            if self.objective is None and sigma_at_least(sigma, self.damping)[0]:
+            if self.objective is None and sigma_at_least(sigma, exact_direction_floor(sigma.entries))[0]:
                 if self._rows is not None:
                     rows, _ = self._rows
                     Jw, dw = J[rows] * self._sw[:, None], d[rows] * self._sw
