@@ -119,8 +119,15 @@ class Servo:
             # or a robot that lags): a new straight segment from where it is, with its
             # velocity; its acceleration is the transient of being held off (with smoothing,
             # the filter's), and carried onto a short line it can leave no jerk-limited stop
-            # on it: the arm overshoots, is held off again, and circles the target
+            # on it: the arm overshoots, is held off again, and circles the target. Its speed
+            # is at most what the old reference had along the new line: the command also
+            # carries the feedback on this very lag, so for an arm that applies only part of
+            # each command (a velocity servo with a gain below 1) the commanded speed grows
+            # with the lag, and lines restarted at it ratchet the progress up until the stop
+            # from that speed runs the arm past the target
+            planned = ap.sd * ap.d
             ap.retarget(target, T, J @ self._m.qd, np.zeros(6))
+            ap.restart(min(ap.sd, max(ap.weighted_dot(planned, ap.d), 0.0)), 0.0)
             e_ref[:] = 0.0
             lag = 0.0
             cyc.reasons.append("held off the straight line by more than "
