@@ -23,6 +23,7 @@ from ..arrays import shared_zeros
 from ..errors import RatectlError, SingularityError
 from .cycle import Cycle, Motion, _finite_sum, _same
 from .progress import ProgressCaps
+from .smoothing import SpeedProfile
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -41,15 +42,22 @@ class Jog:
 
     def reset(self) -> None:
         self.c = 0.0
+        self.cd = 0.0  # ċ [1/s], with smoothing (c is then jerk-limited)
         self.twist: np.ndarray | None = None
         self.w_prev: np.ndarray | None = None
+        self._profile: SpeedProfile | None = None
 
     def start(self, twist: np.ndarray) -> None:
         """A new commanded twist: c continues from the previous motion projected on it."""
         prev = self.twist
         if prev is not None and self.c > 0.0 and not _same(prev, twist):
             nn = float(twist @ twist)
-            self.c = min(max(self.c * float(prev @ twist) / nn, 0.0), 1.0) if nn > 0.0 else 0.0
+            ratio = float(prev @ twist) / nn if nn > 0.0 else 0.0
+            c = self.c * ratio
+            self.c = min(max(c, 0.0), 1.0)
+            # (smoothed) ċ likewise, where c is not clipped: a twist that turns a little every
+            # period keeps its jerk-limited progress going
+            self.cd = self.cd * ratio if 0.0 < c < 1.0 else 0.0
             self.w_prev = None
         self.twist = twist.copy()
 
@@ -63,6 +71,25 @@ class Jog:
         c = min(c + step, goal) if c < goal else goal
         self.c = max(c, 0.0)
         return self.c
+
+    def advance_smoothly(self, caps: ProgressCaps, dt: float) -> float:
+        """c for the coming period with smoothing: toward min(1, the speed bound) on a
+        jerk-limited motion (`SpeedProfile`, within the acceleration and jerk bounds), so that
+        the command c·w with its acceleration ċ·w + c·ẇ is a reference the filter meets
+        exactly; updates c and ċ."""
+        prof = self._profile
+        if prof is None:
+            prof = self._profile = SpeedProfile(dt)
+        goal = max(min(1.0, caps.speed), 0.0)
+        nxt = prof.step(self.c, self.cd, goal, amax=max(caps.accel, 1e-9), jmax=max(caps.jerk, 1e-6), dt=dt)
+        if nxt is None:  # no jerk-limited motion found: the unsmoothed rule
+            self.cd = 0.0
+            return self.advance(caps, dt)
+        c, cd = nxt
+        if c <= 0.0:
+            c, cd = 0.0, 0.0
+        self.c, self.cd = c, cd
+        return c
 
 
 class JogStage:
@@ -88,6 +115,9 @@ class JogStage:
         self._solve = solve
         self._halt = halt
         self._jogger = Jog()
+        # with smoothing (jerk-limited progress bounds) c is jerk-limited and the command a
+        # reference with its acceleration, which the filter meets without turning it
+        self._smoothed = bool(np.all(np.isfinite(progress.bounds.jmax)))
 
     def reset(self) -> None:
         """No jog in progress: the next twist starts from the arm's motion."""
@@ -125,7 +155,8 @@ class JogStage:
                               q_lead=self._m.q_lead,
                               exact=lambda q2, share=True: pr.exact_direction(q2, twist, (q, J), share=share))
         c_prev = jog.c
-        c = jog.advance(caps, dt)
+        c = jog.advance_smoothly(caps, dt) if self._smoothed else jog.advance(caps, dt)
+        w_rate = (w - wp) / dt if wp is not None else None
         jog.w_prev = w
         cyc.xi = twist * c
         if self._adds_rows:
@@ -135,6 +166,9 @@ class JogStage:
         else:
             cyc.res = pr.direction_result(J, twist, w, sig_w, damping_w)
             cyc.qd = w * c
+            if self._smoothed:  # the reference's acceleration ċ·w + c·ẇ, met by the filter
+                cyc.qdd_ff = w * jog.cd if w_rate is None else w * jog.cd + w_rate * c
+                cyc.approach_qd = cyc.qd
             cyc.active = []
             cyc.scale = 1.0
             cyc.smin = None

@@ -127,7 +127,7 @@ class Servo:
             # velocity; its acceleration is the transient of being held off (with smoothing,
             # the filter's), and carried onto a short line it can leave no jerk-limited stop
             # on it: the arm overshoots, is held off again, and circles the target
-            ap.retarget(target, T, J @ self._m.qd, np.zeros(6))
+            self._restart_from_arm(ap, target, T, J)
             e_ref[:] = 0.0
             lag = 0.0
             cyc.reasons.append("held off the straight line by more than "
@@ -194,6 +194,17 @@ class Servo:
                     caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
                 self._progress.flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
         return None
+
+    def _restart_from_arm(self, ap: StraightApproach, target, T, J) -> None:
+        """A new line from the arm's pose ``T`` to ``target``, with the commanded motion J q̇
+        projected on it, but no faster than the old reference moved along it: the command
+        also carries the feedback on the lag that ends the old line, so for an arm that
+        applies only part of each command (a velocity servo with a gain below 1) it grows
+        with the lag, and lines restarted at it would ratchet the progress up until the stop
+        from that speed ran the arm past the target."""
+        planned = ap.sd * ap.d
+        ap.retarget(target, T, J @ self._m.qd, np.zeros(6))
+        ap.restart(min(ap.sd, max(ap.weighted_dot(planned, ap.d), 0.0)), 0.0)
 
     def _end_bounds(self, ap: StraightApproach, q, target, dt) -> None:
         """The progress's acceleration bound at the end of the line, where the arm will be:

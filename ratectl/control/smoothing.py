@@ -31,7 +31,7 @@ from ..arrays import read_only
 from ..errors import InputError, SolverError
 from ..model.jerk_profile import PiecewiseJerk
 
-__all__ = ["VelocityFilter", "ProgressProfile", "JointTrajectory", "move", "stop"]
+__all__ = ["VelocityFilter", "ProgressProfile", "SpeedProfile", "JointTrajectory", "move", "stop"]
 
 
 def _limit_array(value, n: int, name: str) -> np.ndarray:
@@ -322,6 +322,46 @@ class ProgressProfile:
             return None
         out = self._out
         return out.new_position[0], out.new_velocity[0], out.new_acceleration[0]
+
+
+class SpeedProfile:
+    """A scalar, jerk-limited speed toward a goal speed, one period at a time (Ruckig's
+    velocity interface with one degree of freedom). A smoothed jog moves its fraction c of
+    the commanded twist with it, so that the joint motion c·w it commands is a reference
+    the `VelocityFilter` meets exactly (with the acceleration ċ·w + c·ẇ) instead of
+    lagging each joint on its own, which turns the tool off the commanded direction."""
+
+    def __init__(self, dt: float) -> None:
+        import ruckig
+
+        self._ruckig = ruckig
+        self._otg = ruckig.Ruckig(1, float(dt))
+        self._inp = ruckig.InputParameter(1)
+        self._out = ruckig.OutputParameter(1)
+        self._inp.control_interface = ruckig.ControlInterface.Velocity
+        self._inp.current_position = [0.0]
+        self._inp.target_acceleration = [0.0]
+        self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
+
+    def step(self, v: float, a: float, goal: float, *, amax: float, jmax: float, dt: float):
+        """From speed ``v`` and acceleration ``a``, the time-optimal jerk-limited motion to the
+        speed ``goal`` at rest acceleration, |v̇| ≤ ``amax``, |v̈| ≤ ``jmax``: returns its
+        (speed, acceleration) one period ``dt`` later, or None if Ruckig finds no motion."""
+        if self._otg.delta_time != dt:
+            self._otg.delta_time = dt
+        inp = self._inp
+        inp.current_velocity = [v]
+        inp.current_acceleration = [min(max(a, -amax), amax)]
+        inp.target_velocity = [goal]
+        inp.max_acceleration = [amax]
+        inp.max_jerk = [jmax]
+        try:
+            res = self._otg.update(inp, self._out)
+        except self._ruckig.RuckigError:
+            return None
+        if res not in self._ok:
+            return None
+        return self._out.new_velocity[0], self._out.new_acceleration[0]
 
 
 @dataclass(frozen=True, kw_only=True)
