@@ -227,8 +227,9 @@ class ResolvedRateController:
             raise InputError(f"frame must be 'base' or 'tool', got {frame!r}", argument="frame", value=frame)
         if stamp is not None:
             stamp = _checked_stamp(stamp)
-        if self._tasks is not None and target is None and twist is None and qd_ff is None:
-            return self._tasks_step(q, dt, stamp)  # tasks hook: targets come from the tasks
+        if self._tasks is not None:  # tasks hook: the targets come from the tasks
+            _refuse_with_tasks(target=target, twist=twist, qd_ff=qd_ff)
+            return self._tasks_step(q, dt, stamp)
         return self._cycle(*self._gate.validate(q, target, twist, dt, qd_ff, qdd_ff), stamp, frame)
 
     def _cycle(self, q: np.ndarray, target: np.ndarray | None, twist: np.ndarray | None, dt: float,
@@ -412,6 +413,16 @@ class ResolvedRateController:
     def __repr__(self) -> str:
         return (f"ResolvedRateController({self.chain.name!r}, solver={type(self.solver).__name__}, "
                 f"gain={self.gain.tolist()}, smoothing={self.filter is not None})")
+
+
+def _refuse_with_tasks(**given: Any) -> None:
+    """A controller with tasks takes q and dt only: ``target=``, ``twist=`` or ``qd_ff=``
+    would bypass every task (a posture, collision rows), so they raise `InputError`."""
+    for name, value in given.items():
+        if value is not None:
+            raise InputError(f"this controller resolves its tasks (tasks=[...]) and takes q and dt only, "
+                             f"got {name}=: set each task's target with task.set_target(...)",
+                             argument=name, value=value)
 
 
 def _damping_starts(solver: Any) -> float:

@@ -314,9 +314,10 @@ class Servo:
             return
         if cyc.blocked:  # the straight line is blocked where the arm stands
             cyc.flags.insert(0, "target-unreachable")
+            # (the distance left, not a share of the line: a line restarted from where the arm
+            # is, held off it or after the target moved, begins anew at 0 %)
             cyc.reasons.insert(0, f"stopped {cyc.ep * 1e3:.3g} mm / {math.degrees(cyc.eo):.3g}° from the "
-                               f"target, {cyc.approach:.0%} of the way along the straight line to it, "
-                               f"which is blocked: {cyc.blocked}")
+                               f"target: the straight line to it is blocked: {cyc.blocked}")
             return
         if self._joint_line.target is not None:
             return  # on its way in joint space (taken this period, where the line is blocked)

@@ -562,3 +562,16 @@ def test_the_cycle_s_equality_of_targets_is_numpys(a, b):
     x, y = np.array(a), np.array(b)
     assert _same(x, y) == np.array_equal(x, y)
     assert not _same(x, y.reshape(2, 3)) and not _same(x, None)
+
+
+@pytest.mark.parametrize("given", ["target", "twist", "qd_ff"])
+def test_a_controller_with_tasks_refuses_a_target_twist_or_feed_forward(ur5e, given):
+    """``step(q, target=T)`` on a controller with tasks bypassed every task (a posture,
+    collision rows) without a word; it now says what it takes instead."""
+    tool = rc.tasks.Pose(priority=0, target=ur5e.fk(Q_REG))
+    ctrl = rc.ResolvedRateController(ur5e, tasks=[tool, rc.tasks.Posture(Q_REG, priority=1)])
+    value = {"target": ur5e.fk(Q_REG), "twist": np.zeros(6), "qd_ff": np.zeros(6)}[given]
+    with pytest.raises(rc.errors.InputError, match="set_target") as err:
+        ctrl.step(Q_REG, dt=1e-3, **{given: value})
+    assert err.value.argument == given
+    assert ctrl.step(Q_REG, dt=1e-3).status in ("regular", "target-reached")
