@@ -87,13 +87,16 @@ class Motion:
         at most ``_AT_REST``, rounding) that was measured not moving toward its lead since
         ``q_prev`` owes nothing: its lead is its measured q again (a gap a sag or friction
         left, which the arm will never travel, is forgotten)."""
+        # (Python floats: a per-cycle hot path on a handful of joints)
+        ql, qn = q.tolist(), q_next.tolist()
         lead = self.q_lead
         if lead is None or q_prev is None or self.q_next is None:
-            lead = q
-        else:
-            owes = (np.abs(self.q_next - q_prev) > _AT_REST) | ((q - q_prev) * (lead - q) > 0.0)
-            lead = np.where(owes, lead, q)
-        self.q_lead = lead + (q_next - q)
+            self.q_lead = np.array([a + (b - a) for a, b in zip(ql, qn, strict=True)])
+            return
+        self.q_lead = np.array([
+            (ld if (abs(m - p) > _AT_REST or (a - p) * (ld - a) > 0.0) else a) + (b - a)
+            for a, b, p, m, ld in zip(ql, qn, q_prev.tolist(), self.q_next.tolist(), lead.tolist(),
+                                      strict=True)])
 
 
 class Cycle:

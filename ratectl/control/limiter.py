@@ -20,6 +20,7 @@ from collections.abc import Mapping
 from operator import gt as _gt
 from operator import lt as _lt
 from operator import mul as _mul
+from operator import sub as _sub
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -72,6 +73,7 @@ class Limiter:
         self._inv_vmax = np.where(np.isfinite(lim.vmax), 1.0 / lim.vmax, 0.0)
         self._inv_vmax_l = self._inv_vmax.tolist()
         self._inv_amax = np.where(np.isfinite(lim.amax), 1.0 / lim.amax, 0.0)
+        self._inv_amax_l = self._inv_amax.tolist()
         # an absent acceleration limit: a joint can stop in one period, so its position
         # limit is enforced by the velocity limit alone (the braking speed is d/dt)
         amax_f = np.where(np.isfinite(lim.amax), lim.amax, _NO_AMAX)
@@ -96,6 +98,7 @@ class Limiter:
         self._vf = vf
         self._vf2 = np.concatenate([vf, vf])
         self._proom: np.ndarray | None = None
+        self._proom_l: list[float] = []
         self._proom_dt: float | None = None
 
     def limit(self, cyc: Cycle, q, dt) -> bool:
@@ -139,7 +142,7 @@ class Limiter:
         """Uniform scaling of q̇ into |q̇_i| ≤ vmax_i (keeps the direction of motion)."""
         if not self.has_v:
             return
-        r = float((np.abs(cyc.qd) * self._inv_vmax).max())
+        r = max(map(abs, map(_mul, cyc.qd.tolist(), self._inv_vmax_l)))  # (floats: a hot path)
         if r > 1.0:
             cyc.qd = cyc.qd / r
             cyc.scale /= r
@@ -149,9 +152,10 @@ class Limiter:
 
     def _limit_acceleration(self, cyc: Cycle, dt) -> None:
         """The change of q̇ from the previous cycle scaled uniformly into |Δq̇_i| ≤ amax_i dt."""
-        dq = cyc.qd - self._m.qd
-        r = float((np.abs(dq) * self._inv_amax).max()) / dt
+        r = max(map(abs, map(_mul, map(_sub, cyc.qd.tolist(), self._m.qd.tolist()),
+                             self._inv_amax_l))) / dt  # (floats: a hot path)
         if r > 1.0:
+            dq = cyc.qd - self._m.qd
             qd = self._m.qd + dq / r
             cyc.flags.append("acceleration-limited")
             cyc.reasons.append(f"change of q̇ scaled by {1 / r:.3g} to respect amax")
@@ -170,9 +174,11 @@ class Limiter:
             return False
         if self._proom_dt != dt:
             self._proom = self._pbrake + self._vf * dt
+            self._proom_l = self._proom.tolist()
             self._proom_dt = dt
-        room = self._proom
-        return bool(((self.phi - q) < room).any() or ((q - self.plo) < room).any())
+        # (floats: a hot path) the room on either side below the braking room
+        return any(hi - x < r or x - lo < r
+                   for x, lo, hi, r in zip(q.tolist(), self._plo_l, self._phi_l, self._proom_l, strict=True))
 
     def _limit_position(self, cyc: Cycle, q, dt) -> None:
         """Clip each joint's q̇ to the speed from which it can still stop before its limits
