@@ -284,6 +284,27 @@ class Chain:
     def _link_fk_jacobian(self, q: ArrayLike, link: str, frame: str, point: ArrayLike | None,
                           want_jacobian: bool = True):
         """Pose (..., 4, 4) and Jacobian (..., 6, n) of a named link (zero columns after it)."""
+        if (type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64
+                and frame == "base" and point is None and type(link) is str):
+            # one finite configuration: the link's sub-chain kernel on floats (no check_q,
+            # no slicing copies), as the tool's fast path in `fk_jacobian`
+            sub = self._link_chains.get(link, _UNSET)
+            if sub is _UNSET:
+                sub = self._link_chain(link)
+            v = q.tolist()
+            s = sum(v)
+            if sub is not None and s - s == 0.0:
+                k = sub._n
+                if not want_jacobian:
+                    kern = sub._kernels.get(_FK) or kinematics.build_kernel(sub, _FK)
+                    return _fromiter(kern(*v[:k]), _F64, 16).reshape(4, 4), None
+                kern = sub._kernels.get(_FKJAC) or kinematics.build_kernel(sub, _FKJAC)
+                a = _fromiter(kern(*v[:k]), _F64, 16 + 6 * k)
+                if k == self._n:
+                    return a[:16].reshape(4, 4), a[16:].reshape(6, k)
+                J = np.zeros((6, self._n))
+                J[:, :k] = a[16:].reshape(6, k)
+                return a[:16].reshape(4, 4), J
         a = self.check_q(q)
         sub = self._link_chain(link)
         batch = a.shape[:-1]
@@ -562,6 +583,7 @@ def _check_links(links, n: int) -> dict[str, tuple[int, np.ndarray]]:
 
 
 _F64 = np.dtype(np.float64)
+_UNSET = object()
 _fromiter = np.fromiter
 _FK = ("fk", False)
 _JAC = ("jac", False)
