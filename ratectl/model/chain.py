@@ -288,9 +288,7 @@ class Chain:
                 and frame == "base" and point is None and type(link) is str):
             # one finite configuration: the link's sub-chain kernel on floats (no check_q,
             # no slicing copies), as the tool's fast path in `fk_jacobian`
-            sub = self._link_chains.get(link, _UNSET)
-            if sub is _UNSET:
-                sub = self._link_chain(link)
+            sub = self._link_chain(link)
             v = q.tolist()
             s = sum(v)
             if sub is not None and s - s == 0.0:
@@ -583,7 +581,6 @@ def _check_links(links, n: int) -> dict[str, tuple[int, np.ndarray]]:
 
 
 _F64 = np.dtype(np.float64)
-_UNSET = object()
 _fromiter = np.fromiter
 _FK = ("fk", False)
 _JAC = ("jac", False)
