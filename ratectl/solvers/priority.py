@@ -129,6 +129,7 @@ class _Infeasible(Exception):
 
 _ACT_TOL = 1e-7  # a bound or row within this (relative) counts as active
 _NO_ROWS = shared_zeros(0, dtype=bool)
+_NO_H = shared_zeros(0)
 
 
 class PriorityCascade:
@@ -176,6 +177,7 @@ class PriorityCascade:
         self._bcache: _BoundCache | None = None
         self._eyes: dict[int, np.ndarray] = {}
         self._kept: dict[tuple, np.ndarray] = {}
+        self._no_rows: dict[int, np.ndarray] = {}  # G (0, n) of a solve without extra rows
         self._projection: np.ndarray | None = None  # the last null-space projection within the box
 
     def __repr__(self) -> str:
@@ -269,11 +271,15 @@ class PriorityCascade:
             if bc is None or (a is not bc.vmax and a is not bc.nvmax):
                 a.setflags(write=False)
         if extra_inequalities is None:
-            G, h = np.zeros((0, n)), np.zeros(0)
+            G = self._no_rows.get(n)
+            if G is None:
+                G = self._no_rows[n] = np.zeros((0, n))
+                G.setflags(write=False)
+            h = _NO_H
         else:
             G, h = extra_inequalities
         try:
-            return self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]), n)
+            return self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]) if h.size else _NO_H, n)
         except _Infeasible:
             if not h.size:
                 raise SolverError(f"the priority cascade's first level failed on backend "
@@ -294,8 +300,9 @@ class PriorityCascade:
         the weighted rows in the free directions) solved by one Cholesky (LAPACK
         ``dposv``); the null space for the next level from one SVD of M (``dgesdd``),
         skipped after the last level. Neither depends on q̇, so the second pass reuses them."""
-        lo_l = (lo - 1e-12).tolist()
-        hi_l = (hi + 1e-12).tolist()
+        lo_f, hi_f = lo.tolist(), hi.tolist()
+        lo_l = [v - 1e-12 for v in lo_f]  # (the box with the tolerance of its test, on floats)
+        hi_l = [v + 1e-12 for v in hi_f]
         x_zero = max(lo_l) <= -1e-12 and min(hi_l) >= 1e-12  # the box holds q̇ = 0
         x0 = np.zeros(n) if x_zero else np.minimum(np.maximum(lo, 0.0), hi)
         lam2 = self.damping**2
@@ -357,10 +364,13 @@ class PriorityCascade:
                 x, qps[k] = self._solve_level(A, b, sw, part, x, start_zero, lam2, k + 1 < nlev, lo, hi,
                                               lo_l, hi_l, G, h, h_tol, n, fallback)
                 start_zero = False
-        x = np.minimum(np.maximum(x, lo), hi)
+        # q̇ clipped into the box, and the joints on a face of it (within _ACT_TOL of the
+        # box's span): on Python floats (a few joints; cheaper than numpy's calls)
+        xl = list(map(min, map(max, x.tolist(), lo_f), hi_f))
+        x = np.array(xl)
         res = _residuals(lv, x)
-        span = np.abs(hi) + np.abs(lo)
-        box_active = np.minimum(hi - x, x - lo) <= _ACT_TOL * np.maximum(span, 1.0, out=span)
+        box_active = self._frozen([min(u - v, v - w) <= _ACT_TOL * max(abs(u) + abs(w), 1.0)
+                                   for v, w, u in zip(xl, lo_f, hi_f, strict=True)], bool)
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
         return _owned_result(x, res, self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
                              box_active, rows_active, relaxed, self.backend)
@@ -370,10 +380,11 @@ class PriorityCascade:
         key = (dtype, tuple(values))
         a = self._kept.get(key)
         if a is None:
-            if len(self._kept) > 64:
+            if len(self._kept) > 256:
                 self._kept.clear()
-            a = self._kept[key] = np.array(values, dtype=dtype)
-            a.setflags(write=False)
+            base = np.array(values, dtype=dtype)
+            base.setflags(write=False)
+            a = self._kept[key] = base.view()  # (a view: numpy refuses to make it writeable)
         return a
 
     def residuals_without_rows(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]],
