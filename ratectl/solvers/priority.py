@@ -382,7 +382,7 @@ class PriorityCascade:
         if a is None:
             if len(self._kept) > 256:
                 self._kept.clear()
-            base = np.array(values, dtype=dtype)
+            base: np.ndarray = np.array(values, dtype=dtype)
             base.setflags(write=False)
             a = self._kept[key] = base.view()  # (a view: numpy refuses to make it writeable)
         return a
