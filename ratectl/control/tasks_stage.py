@@ -187,7 +187,7 @@ class TasksStage:
                               status="failed")
         flags: list[str] = []
         reasons: list[str] = []
-        if rows is not None and res.rows_active.any():
+        if rows is not None and True in res.rows_active.tolist():
             # held back = the level does worse than with the box alone (one more cascade,
             # only in the cycles where a damper row is active)
             free = self.cascade.residuals_without_rows(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
@@ -201,12 +201,12 @@ class TasksStage:
                 reasons.append(f"collision avoidance holds back priority level(s) {blocked}: "
                                f"{act.size} damper row(s) active, closest {pairs[worst][0]} – "
                                f"{pairs[worst][1]} at {dist[worst] * 1e3:.3g} mm")
-        if rows is not None and res.relaxed.any():
+        if rows is not None and max(res.relaxed.tolist(), default=0.0) > 0.0:
             flags.append("collision-avoidance")
             reasons.append(f"a collision damper could not be met within the joint limits this period "
                            f"(relaxed by up to {float(res.relaxed.max()):.3g} m/s)")
         active: tuple[str, ...] = ()
-        if limits is not None and res.box_active.any():
+        if limits is not None and True in res.box_active.tolist():
             by_kind: dict[str, list[str]] = {}
             for j, kind in self.cascade.limit_kinds(res, qd_prev):
                 by_kind.setdefault(kind, []).append(chain.joint_names[j])

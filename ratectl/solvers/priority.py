@@ -39,6 +39,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from operator import gt as _gt
 from operator import lt as _lt
+from operator import sub as _sub
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -130,6 +131,20 @@ class _Infeasible(Exception):
 _ACT_TOL = 1e-7  # a bound or row within this (relative) counts as active
 _NO_ROWS = shared_zeros(0, dtype=bool)
 _NO_H = shared_zeros(0)
+_ONE_OF_ONE = np.ones((1, 1))  # the null space of a zero column (one direction, kept)
+_NONE_OF_ONE = np.ones((1, 0))  # the null space of a non-zero column (none)
+for _a in (_ONE_OF_ONE, _NONE_OF_ONE):
+    _a.setflags(write=False)
+_NO_COLUMNS: dict[int, np.ndarray] = {}
+
+
+def _no_columns(n: int) -> np.ndarray:
+    """A basis of no directions, (n, 0) (read-only, one per n)."""
+    z = _NO_COLUMNS.get(n)
+    if z is None:
+        z = _NO_COLUMNS[n] = np.zeros((n, 0))
+        z.setflags(write=False)
+    return z
 
 
 class PriorityCascade:
@@ -301,9 +316,9 @@ class PriorityCascade:
         ``dposv``); the null space for the next level from one SVD of M (``dgesdd``),
         skipped after the last level. Neither depends on q̇, so the second pass reuses them."""
         lo_f, hi_f = lo.tolist(), hi.tolist()
-        lo_l = [v - 1e-12 for v in lo_f]  # (the box with the tolerance of its test, on floats)
-        hi_l = [v + 1e-12 for v in hi_f]
-        x_zero = max(lo_l) <= -1e-12 and min(hi_l) >= 1e-12  # the box holds q̇ = 0
+        # the box holds q̇ = 0 (within the 1e-12 of its test: the largest lo_i − 1e-12 is
+        # max(lo) − 1e-12, rounding being monotone)
+        x_zero = max(lo_f) - 1e-12 <= -1e-12 and min(hi_f) + 1e-12 >= 1e-12
         x0 = np.zeros(n) if x_zero else np.minimum(np.maximum(lo, 0.0), hi)
         lam2 = self.damping**2
         nlev = len(lv)
@@ -329,11 +344,15 @@ class PriorityCascade:
                 rhs = b - A @ x
                 if sw is not None:
                     rhs *= sw
-                hh = float(mv.dot(mv)) + lam2
+                mm = float(mv.dot(mv))
+                hh = mm + lam2
                 t = (float(mv.dot(rhs)) - lam2 * float(v.dot(x))) / hh if hh > 0.0 else 0.0
                 M = mv[:, None]
-                V = _null_space(M, self.tolerance) if k + 1 < nlev else None
-                parts.append((Z, M, np.array([[hh]]), V))
+                V = None
+                if k + 1 < nlev:  # `_null_space` of one column: its norm is its singular value
+                    s1 = math.sqrt(mm)
+                    V = _ONE_OF_ONE if s1 <= self.tolerance * max(1.0, s1) else _NONE_OF_ONE
+                parts.append((Z, M, hh, V))  # (H = [[hh]], made in pass 2 if needed)
                 x = x + v * t
             else:
                 M = Mw if Z is None else Mw @ Z
@@ -346,14 +365,28 @@ class PriorityCascade:
                 x = x + (z if Z is None else Z @ z)
             start_zero = False
             if V is not None:
-                Z = V if Z is None else Z @ V
+                if V is _NONE_OF_ONE:  # (Z @ V without the product: no direction left)
+                    Z = _no_columns(n)
+                elif V is not _ONE_OF_ONE:  # (the one direction stays)
+                    Z = V if Z is None else Z @ V
         cl = x.tolist()
-        ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
+        # within the box: strictly (then the clip below changes nothing), else within the
+        # 1e-12 of the test
+        inside = not (any(map(_lt, cl, lo_f)) or any(map(_gt, cl, hi_f)))
+        lo_l = hi_l = None
+        ok = inside
+        if not inside:
+            lo_l = [v - 1e-12 for v in lo_f]
+            hi_l = [v + 1e-12 for v in hi_f]
+            ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
         self._projection = x if ok else None  # (within the box: the answer without the rows)
         if ok and have_rows:
             ok = bool((G @ x <= h_tol).all())
         qps = [False] * nlev
         if not ok:
+            if lo_l is None:
+                lo_l = [v - 1e-12 for v in lo_f]
+                hi_l = [v + 1e-12 for v in hi_f]
             # pass 2: each level's answer within the box and the rows
             x = x0
             start_zero = x_zero
@@ -366,14 +399,26 @@ class PriorityCascade:
                 start_zero = False
         # q̇ clipped into the box, and the joints on a face of it (within _ACT_TOL of the
         # box's span): on Python floats (a few joints; cheaper than numpy's calls)
-        xl = list(map(min, map(max, x.tolist(), lo_f), hi_f))
-        x = np.array(xl)
+        if ok and inside:
+            xl = cl  # (the first pass's answer, strictly inside: the clip is the identity)
+        else:
+            xl = list(map(min, map(max, x.tolist(), lo_f), hi_f))
+            x = np.array(xl)
         res = _residuals(lv, x)
-        box_active = self._frozen([min(u - v, v - w) <= _ACT_TOL * max(abs(u) + abs(w), 1.0)
-                                   for v, w, u in zip(xl, lo_f, hi_f, strict=True)], bool)
+        box_active = self._box_active(xl, lo_f, hi_f)
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
         return _owned_result(x, res, self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
                              box_active, rows_active, relaxed, self.backend)
+
+    def _box_active(self, xl: list[float], lo_f: list[float], hi_f: list[float]) -> np.ndarray:
+        """The joints within ``_ACT_TOL · max(|hi| + |lo|, 1)`` of a face of the box (read-only
+        bool (n,)): none when every joint is farther than the largest of these tolerances from
+        both faces (two passes on floats), else joint by joint."""
+        tol = _ACT_TOL * max(max(map(abs, hi_f)) + max(map(abs, lo_f)), 1.0)
+        if min(map(_sub, hi_f, xl)) > tol and min(map(_sub, xl, lo_f)) > tol:
+            return shared_zeros(len(xl), dtype=bool)
+        return self._frozen([min(u - v, v - w) <= _ACT_TOL * max(abs(u) + abs(w), 1.0)
+                             for v, w, u in zip(xl, lo_f, hi_f, strict=True)], bool)
 
     def _frozen(self, values: list, dtype: type) -> np.ndarray:
         """``values`` as a read-only array, one kept per distinct list (a cascade sees few)."""
@@ -420,6 +465,8 @@ class PriorityCascade:
         column) takes the line's least-norm point inside the box and the rows, and anything
         else the backend's QP."""
         Z, M, H, V = part
+        if type(H) is float:  # (a level with one free direction keeps its 1×1 H as a float)
+            H = np.array([[H]])
         r = H.shape[0]
         g = self._gradient(A, b, sw, M, Z, x, x_zero, lam2)
         z = _spd_solve(H, g)
@@ -640,10 +687,12 @@ def _owned_result(qd, residuals, qps, freedom, lo, hi, box_active, rows_active, 
     copied (``qps`` and ``freedom`` read-only already; the box is copied by `read_only` only
     where it is writable)."""
     for a in (qd, residuals, box_active, rows_active, relaxed):
-        a.setflags(write=False)
+        if a.flags.writeable:
+            a.setflags(write=False)
     r = object.__new__(CascadeResult)
     object.__setattr__(r, "__dict__", {"qd": qd, "residuals": residuals, "qps": qps, "freedom": freedom,
-                                       "lower": read_only(lo), "upper": read_only(hi),
+                                       "lower": lo if not lo.flags.writeable else read_only(lo),
+                                       "upper": hi if not hi.flags.writeable else read_only(hi),
                                        "box_active": box_active, "rows_active": rows_active,
                                        "relaxed": relaxed, "backend": backend})
     return r

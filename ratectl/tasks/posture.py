@@ -50,7 +50,8 @@ class Posture(Task):
                                                                "[rad or m]")
         self._joints = None if joints is None else np.asarray(joints, dtype=int).ravel()
         self._A: tuple[tuple[int, float], np.ndarray] | None = None  # the scaled rows of I, kept
-        self._estar: tuple | None = None  # (key, e* per joint, amax, jmax, the limit arrays)
+        self._estar: tuple | None = None  # (amax, jmax, gain, e* per joint, amax, jmax lists)
+        self._rows_in: tuple | None = None  # (A, key): the array whose rows were last written
 
     @property
     def has_target(self) -> bool:
@@ -84,17 +85,17 @@ class Posture(Task):
         class docstring); e* per joint is kept per (chain limits, gain)."""
         K = self.gain
         amax, jmax = chain.amax, chain.jmax
-        key = (id(amax), id(jmax), K, None if self._joints is None else self._joints.tobytes())
         c = self._estar
-        if c is None or c[0] != key:
+        if c is None or c[0] is not amax or c[1] is not jmax or c[2] != K:
             j = slice(None) if self._joints is None else self._joints
             al, jl = amax[j].tolist(), jmax[j].tolist()
-            c = self._estar = (key, [_linear_up_to(K, a, jj) for a, jj in zip(al, jl, strict=True)],
-                               al, jl, (amax, jmax))
-        _, estar, al, jl, _ = c
+            c = self._estar = (amax, jmax, K, [_linear_up_to(K, a, jj) for a, jj in zip(al, jl, strict=True)],
+                               al, jl)
+        estar = c[3]
         el = e.tolist()
         if not any(map(_gt, map(abs, el), estar)):
             return  # every joint within its linear range (the common case)
+        al, jl = c[4], c[5]
         for i, (ei, es) in enumerate(zip(el, estar, strict=True)):
             if abs(ei) > es:
                 v = min(K * abs(ei), braking_speed_scalar(abs(ei), al[i], jl[i]))
@@ -111,7 +112,9 @@ class Posture(Task):
     def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
               s: float) -> float:
         """``A = I`` (the rows of ``joints``), ``e = q_ref − q``, ``b = K e`` (scaled by s)."""
-        q_ref = self._checked(chain)
+        q_ref = self._q_ref  # (checked against the chain by _row_count, asked first every cycle)
+        if q_ref is None:
+            q_ref = self._checked(chain)  # raises
         j = self._joints
         n = chain.dof
         if j is None:
@@ -124,7 +127,10 @@ class Posture(Task):
         if self._A is None or self._A[0] != key:
             rows = np.eye(n) * s
             self._A = (key, rows if j is None else rows[j])
-        A[...] = self._A[1]
+        w = self._rows_in
+        if w is None or w[0] is not A or w[1] != key:  # (the controller's level arrays keep them)
+            A[...] = self._A[1]
+            self._rows_in = (A, key)
         return math.sqrt(float(e.dot(e)))
 
 
