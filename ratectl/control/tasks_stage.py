@@ -112,6 +112,7 @@ class TasksStage:
         self._levels: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
         self._priorities: tuple[int, ...] = ()
         self._tool_e: np.ndarray | None = None
+        self._stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None = None
 
     def _layout(self, q: np.ndarray, key: list) -> None:
         """Each level's arrays (the weighted rows √w·A (m, n) and √w·b (m,), the errors (m,))
@@ -128,10 +129,18 @@ class TasksStage:
                              argument="tasks", value=self.tasks)
         self._priorities = tuple(sorted(by_priority))
         self._fills, self._levels, self._tool_e = [], [], None
+        # every level's rows in one array (its consecutive blocks): the cascade's residuals
+        # in one product
+        total = sum(size for items in by_priority.values() for _, _, size in items)
+        A_all, b_all, e_all = np.zeros((total, n)), np.zeros(total), np.zeros(total)
+        ends: list[int] = []
+        start = 0
         for p in self._priorities:
             items = by_priority[p]
             m = sum(size for _, _, size in items)
-            A, b, e = np.zeros((m, n)), np.zeros(m), np.zeros(m)
+            A, b, e = A_all[start:start + m], b_all[start:start + m], e_all[start:start + m]
+            start += m
+            ends.append(start)
             i = 0
             for k, t, size in items:
                 sl = slice(i, i + size)
@@ -141,6 +150,7 @@ class TasksStage:
                     self._tool_e = e[sl]
                 i += size
             self._levels.append((A, b, None))  # the rows are written weighted (× √weight)
+        self._stacked = (A_all, b_all, tuple(ends)) if len(ends) > 1 else None
         self._key = key
 
     def tool_error(self) -> np.ndarray | None:
@@ -181,7 +191,7 @@ class TasksStage:
                 closest = min(closest, p.closest)
         rows = (G, h) if G is not None and h is not None and h.size else None
         res = self.cascade.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
-                                           extra_inequalities=rows)
+                                           extra_inequalities=rows, stacked=self._stacked)
         if not math.isfinite(sum(res.qd.tolist())):
             raise SolverError("the priority cascade gave a non-finite q̇ (non-finite task rows?)",
                               status="failed")

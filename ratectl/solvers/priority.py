@@ -273,12 +273,17 @@ class PriorityCascade:
     def solve_validated(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]], *,
                         limits: Limits | Chain | None, q: np.ndarray | None, qd_prev: np.ndarray | None,
                         dt: float | None,
-                        extra_inequalities: tuple[np.ndarray, np.ndarray] | None = None) -> CascadeResult:
+                        extra_inequalities: tuple[np.ndarray, np.ndarray] | None = None,
+                        stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None = None,
+                        ) -> CascadeResult:
         """`solve` without its checks, for a caller that has made them (the controller's
         tasks stage): ``levels`` are ``(A, b, sw)`` triples of finite float64 arrays, A (m, n),
         b (m,) and ``sw`` (m,) the square roots of the row weights or None (all 1); ``q`` and
         ``qd_prev`` finite float64 (n,) or None; ``dt`` > 0 or None; ``extra_inequalities``
-        ``(G (k, n), h (k,))`` float64 with k ≥ 1, or None. The answer is `solve`'s."""
+        ``(G (k, n), h (k,))`` float64 with k ≥ 1, or None. ``stacked``: when every level's
+        A and b are consecutive row blocks of one (M, n) array and one (M,) vector, and no
+        level has weights, ``(A_all, b_all, ends)`` with ``ends`` each level's last row + 1:
+        the residuals then come from one product. The answer is `solve`'s."""
         n = levels[0][0].shape[1]
         lo, hi = self.box(n, limits, q, qd_prev, dt)
         bc = self._bcache
@@ -294,15 +299,16 @@ class PriorityCascade:
         else:
             G, h = extra_inequalities
         try:
-            return self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]) if h.size else _NO_H, n)
+            return self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]) if h.size else _NO_H, n,
+                                 stacked=stacked)
         except _Infeasible:
             if not h.size:
                 raise SolverError(f"the priority cascade's first level failed on backend "
                                   f"{self.backend!r}", status="failed") from None
         relaxed, feasible = self._relaxation(lo, hi, G, h)
-        return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible)
+        return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible, stacked=stacked)
 
-    def _cascade(self, lv, lo, hi, G, h, relaxed, n, fallback=None) -> CascadeResult:
+    def _cascade(self, lv, lo, hi, G, h, relaxed, n, fallback=None, stacked=None) -> CascadeResult:
         """The levels in order; ``fallback`` (a q̇ known to satisfy the box and the rows)
         stands in for the first level's QP if its backend finds no point (a relaxed problem
         on the edge of its tolerance).
@@ -404,7 +410,7 @@ class PriorityCascade:
         else:
             xl = list(map(min, map(max, x.tolist(), lo_f), hi_f))
             x = np.array(xl)
-        res = _residuals(lv, x)
+        res = _residuals(lv, x) if stacked is None else _stacked_residuals(stacked, x)
         box_active = self._box_active(xl, lo_f, hi_f)
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
         return _owned_result(x, res, self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
@@ -626,6 +632,20 @@ def _residuals(levels, x: np.ndarray) -> np.ndarray:
             d *= sw
         res.append(math.sqrt(d.dot(d)))
     return np.array(res)
+
+
+def _stacked_residuals(stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]], x: np.ndarray) -> np.ndarray:
+    """`_residuals` of unweighted levels stacked in one array (see `solve_validated`):
+    ``A_all x − b_all`` once, then each level's norm on its rows."""
+    A, b, ends = stacked
+    d = A @ x - b
+    out = []
+    i = 0
+    for j in ends:
+        di = d[i:j]
+        out.append(math.sqrt(di.dot(di)))
+        i = j
+    return np.array(out)
 
 
 def _spd_solve(H: np.ndarray, g: np.ndarray) -> np.ndarray:
