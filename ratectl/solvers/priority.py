@@ -367,8 +367,11 @@ class PriorityCascade:
                     H += self._lam2_eye(r)
                 V = _null_space(M, self.tolerance) if k + 1 < nlev else None
                 parts.append((Z, M, H, V))
-                z = _spd_solve(H, self._gradient(A, b, sw, M, Z, x, start_zero, lam2))
-                x = x + (z if Z is None else Z @ z)
+                if start_zero and Z is None and sw is None:  # (the first level from q̇ = 0: g = Mᵀb)
+                    x = _spd_solve(H, M.T @ b)
+                else:
+                    z = _spd_solve(H, self._gradient(A, b, sw, M, Z, x, start_zero, lam2))
+                    x = x + (z if Z is None else Z @ z)
             start_zero = False
             if V is not None:
                 if V is _NONE_OF_ONE:  # (Z @ V without the product: no direction left)

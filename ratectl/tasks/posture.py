@@ -52,6 +52,7 @@ class Posture(Task):
         self._A: tuple[tuple[int, float], np.ndarray] | None = None  # the scaled rows of I, kept
         self._estar: tuple | None = None  # (amax, jmax, gain, e* per joint, amax, jmax lists)
         self._rows_in: tuple | None = None  # (A, key): the array whose rows were last written
+        self._valid: tuple | None = None  # (q_ref, chain, rows): the last q_ref checked on a chain
 
     @property
     def has_target(self) -> bool:
@@ -102,8 +103,12 @@ class Posture(Task):
                 b[i] = s * math.copysign(v, ei)
 
     def _row_count(self, chain: Chain, q: np.ndarray) -> int:
-        self._checked(chain)
-        return chain.dof if self._joints is None else int(self._joints.size)
+        v = self._valid
+        if v is None or v[0] is not self._q_ref or v[1] is not chain:  # (checked once per target)
+            self._checked(chain)
+            self._valid = (self._q_ref, chain, chain.dof if self._joints is None else int(self._joints.size))
+            v = self._valid
+        return v[2]
 
     def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
         """``A = I`` (the rows of ``joints``), ``b = K (q_ref − q)``."""
