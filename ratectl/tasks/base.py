@@ -194,12 +194,17 @@ class FrameTask(Task):
         if self._target is None:
             raise InputError(f"{self!r} has no target: call set_target first", argument="target",
                              value=None)
-        T, J = self.frame(chain, q)
+        link = self.link
+        T, J = chain.fk_jacobian(q) if link is None else chain.fk_jacobian(q, link=link)
         r = self._rows
         if r.start == 0 and r.stop == 6:  # the full pose: the error straight into e
             ep, th = pose_error_into(e, self._target, T)
             norm = math.sqrt(ep * ep + th * th)
             np.multiply(e, self.gain * s, out=b)
+            np.multiply(J, s, out=A)
+            if self._has_twist:
+                b += s * self._twist
+            return norm
         elif r.stop == 3:  # the position alone: p_d − p (no rotation error to compute)
             np.subtract(self._target[:3, 3], T[:3, 3], out=e)
             norm = math.sqrt(float(e.dot(e)))
