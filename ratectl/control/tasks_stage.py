@@ -19,7 +19,7 @@ import numpy as np
 from ..arrays import read_only
 from ..errors import InputError, SolverError
 from ..solvers.priority import CascadeResult, PriorityCascade
-from ..tasks.base import Task
+from ..tasks.base import FrameTask, Task
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -113,6 +113,7 @@ class TasksStage:
         self._priorities: tuple[int, ...] = ()
         self._tool_e: np.ndarray | None = None
         self._stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None = None
+        self._framed: tuple[list[FrameTask], tuple[str | None, ...], list[int]] | None = None
 
     def _layout(self, q: np.ndarray, key: list) -> None:
         """Each level's arrays (the weighted rows √w·A (m, n) and √w·b (m,), the errors (m,))
@@ -151,6 +152,14 @@ class TasksStage:
                 i += size
             self._levels.append((A, b, None))  # the rows are written weighted (× √weight)
         self._stacked = (A_all, b_all, tuple(ends)) if len(ends) > 1 else None
+        # frame tasks on two links or more: their frames in one pass of the chain
+        framed = [t for _, t, *_ in self._fills
+                  if isinstance(t, FrameTask) and type(t).frame is FrameTask.frame]
+        for t in self.tasks:  # (no frame left over from a cycle that did not finish)
+            if isinstance(t, FrameTask):
+                t._frame_now = None
+        links = tuple(dict.fromkeys(t.link for t in framed))
+        self._framed = (framed, links, [links.index(t.link) for t in framed]) if len(links) > 1 else None
         self._key = key
 
     def tool_error(self) -> np.ndarray | None:
@@ -168,6 +177,11 @@ class TasksStage:
         if key != self._key:
             self._layout(q, key)
         errs = [math.nan] * len(self.tasks)
+        framed = self._framed
+        if framed is not None:
+            frames = chain.fk_jacobian_links(q, framed[1])
+            for ft, i in zip(framed[0], framed[2], strict=True):
+                ft._frame_now = frames[i]
         for k, t, A_t, b_t, e_t, sw in self._fills:
             errs[k] = t._fill(chain, q, A_t, b_t, e_t, sw)
         errors = np.array(errs)
