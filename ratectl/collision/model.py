@@ -143,6 +143,7 @@ class CollisionModel:
                 self._P[b] = chain.fk(np.zeros(chain.dof), link=lk)
             else:
                 self._moving.append((b, lk))
+        self._moving_links = tuple(lk for _, lk in self._moving)
         self._pi = np.array([i for i, _ in self.pairs], dtype=int)
         self._pj = np.array([j for _, j in self.pairs], dtype=int)
         self._rsum = np.array([self.shapes[i].radius + self.shapes[j].radius for i, j in self.pairs])
@@ -231,10 +232,9 @@ class CollisionModel:
         n = chain.dof
         coal = self._coal
         shapes = self.shapes
-        fkj = chain.fk_jacobian
         P, Jb = self._P, self._J
-        for b, lk in self._moving:  # pose and Jacobian in one call
-            T, J = fkj(q, link=lk)
+        # every moving link's pose and Jacobian in one pass of the chain
+        for (b, _), (T, J) in zip(self._moving, chain.fk_jacobian_links(q, self._moving_links), strict=True):
             P[b] = T
             Jb[b] = J
         S = len(shapes)

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arrays import shared_zeros
 from .command import _RANK, Command, make_command
 from .cycle import Cycle
 
@@ -22,6 +23,8 @@ if TYPE_CHECKING:
     from .tasks_stage import TasksResult, TasksStage
 
 __all__ = ["tasks_stage", "tasks_command", "smoothed_tasks_motion"]
+
+_REGULAR = ("regular",)
 
 
 def tasks_stage(chain: Chain, tasks: Any, collision: Any) -> TasksStage | None:
@@ -40,9 +43,12 @@ def tasks_command(stage: TasksStage, chain: Chain, res: Any, q_next: np.ndarray,
     the cascade's answer ``res`` with q_next, q̇, q̈ [rad, rad/s, rad/s²], the period
     starting at ``t0`` [s] and lasting ``dt`` [s]; ``flags`` and ``reasons`` of the cycle's
     own stages (smoothing) after the cascade's."""
-    flags = tuple(dict.fromkeys(res.flags + flags)) or ("regular",)
-    reasons = res.reasons + reasons
-    status = min(flags, key=_RANK.__getitem__)
+    if res.flags or flags:
+        flags = tuple(dict.fromkeys(res.flags + flags))
+        status = min(flags, key=_RANK.__getitem__)
+        reason = "; ".join(res.reasons + reasons)
+    else:  # (the common cycle: nothing held the motion back)
+        flags, status, reason = _REGULAR, "regular", ""
     e = stage.tool_error()  # the tool pose task's error, when there is one
     if e is None:
         e = np.zeros(6)
@@ -51,8 +57,8 @@ def tasks_command(stage: TasksStage, chain: Chain, res: Any, q_next: np.ndarray,
         ex, ey, ez, rx, ry, rz = e.tolist()
         ep, eo = math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(rx * rx + ry * ry + rz * rz)
     return make_command({"qd": qd, "q_next": q_next, "qdd": qdd.copy(), "status": status,
-                         "flags": flags, "reason": "; ".join(reasons), "error": e,
-                         "position_error": ep, "orientation_error": eo, "twist": np.zeros(6),
+                         "flags": flags, "reason": reason, "error": e,
+                         "position_error": ep, "orientation_error": eo, "twist": shared_zeros(6),
                          "sigma_min": float("nan"), "damping": 0.0, "task_error": res.residuals,
                          "velocity_scale": 1.0, "limits_active": res.limits_active, "time": t0,
                          "dt": dt, "solve": res}, chain, q)

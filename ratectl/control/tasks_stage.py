@@ -19,7 +19,7 @@ import numpy as np
 from ..arrays import read_only
 from ..errors import InputError, SolverError
 from ..solvers.priority import CascadeResult, PriorityCascade
-from ..tasks.base import Task
+from ..tasks.base import FrameTask, Task
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -112,6 +112,8 @@ class TasksStage:
         self._levels: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
         self._priorities: tuple[int, ...] = ()
         self._tool_e: np.ndarray | None = None
+        self._stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None = None
+        self._framed: tuple[list[FrameTask], tuple[str | None, ...], list[int]] | None = None
 
     def _layout(self, q: np.ndarray, key: list) -> None:
         """Each level's arrays (the weighted rows √w·A (m, n) and √w·b (m,), the errors (m,))
@@ -128,10 +130,18 @@ class TasksStage:
                              argument="tasks", value=self.tasks)
         self._priorities = tuple(sorted(by_priority))
         self._fills, self._levels, self._tool_e = [], [], None
+        # every level's rows in one array (its consecutive blocks): the cascade's residuals
+        # in one product
+        total = sum(size for items in by_priority.values() for _, _, size in items)
+        A_all, b_all, e_all = np.zeros((total, n)), np.zeros(total), np.zeros(total)
+        ends: list[int] = []
+        start = 0
         for p in self._priorities:
             items = by_priority[p]
             m = sum(size for _, _, size in items)
-            A, b, e = np.zeros((m, n)), np.zeros(m), np.zeros(m)
+            A, b, e = A_all[start:start + m], b_all[start:start + m], e_all[start:start + m]
+            start += m
+            ends.append(start)
             i = 0
             for k, t, size in items:
                 sl = slice(i, i + size)
@@ -141,6 +151,15 @@ class TasksStage:
                     self._tool_e = e[sl]
                 i += size
             self._levels.append((A, b, None))  # the rows are written weighted (× √weight)
+        self._stacked = (A_all, b_all, tuple(ends)) if len(ends) > 1 else None
+        # frame tasks on two links or more: their frames in one pass of the chain
+        framed = [t for _, t, *_ in self._fills
+                  if isinstance(t, FrameTask) and type(t).frame is FrameTask.frame]
+        for t in self.tasks:  # (no frame left over from a cycle that did not finish)
+            if isinstance(t, FrameTask):
+                t._frame_now = None
+        links = tuple(dict.fromkeys(t.link for t in framed))
+        self._framed = (framed, links, [links.index(t.link) for t in framed]) if len(links) > 1 else None
         self._key = key
 
     def tool_error(self) -> np.ndarray | None:
@@ -158,6 +177,11 @@ class TasksStage:
         if key != self._key:
             self._layout(q, key)
         errs = [math.nan] * len(self.tasks)
+        framed = self._framed
+        if framed is not None:
+            frames = chain.fk_jacobian_links(q, framed[1])
+            for ft, i in zip(framed[0], framed[2], strict=True):
+                ft._frame_now = frames[i]
         for k, t, A_t, b_t, e_t, sw in self._fills:
             errs[k] = t._fill(chain, q, A_t, b_t, e_t, sw)
         errors = np.array(errs)
@@ -181,13 +205,13 @@ class TasksStage:
                 closest = min(closest, p.closest)
         rows = (G, h) if G is not None and h is not None and h.size else None
         res = self.cascade.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
-                                           extra_inequalities=rows)
+                                           extra_inequalities=rows, stacked=self._stacked)
         if not math.isfinite(sum(res.qd.tolist())):
             raise SolverError("the priority cascade gave a non-finite q̇ (non-finite task rows?)",
                               status="failed")
         flags: list[str] = []
         reasons: list[str] = []
-        if rows is not None and res.rows_active.any():
+        if rows is not None and True in res.rows_active.tolist():
             # held back = the level does worse than with the box alone (one more cascade,
             # only in the cycles where a damper row is active)
             free = self.cascade.residuals_without_rows(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
@@ -201,12 +225,12 @@ class TasksStage:
                 reasons.append(f"collision avoidance holds back priority level(s) {blocked}: "
                                f"{act.size} damper row(s) active, closest {pairs[worst][0]} – "
                                f"{pairs[worst][1]} at {dist[worst] * 1e3:.3g} mm")
-        if rows is not None and res.relaxed.any():
+        if rows is not None and max(res.relaxed.tolist(), default=0.0) > 0.0:
             flags.append("collision-avoidance")
             reasons.append(f"a collision damper could not be met within the joint limits this period "
                            f"(relaxed by up to {float(res.relaxed.max()):.3g} m/s)")
         active: tuple[str, ...] = ()
-        if limits is not None and res.box_active.any():
+        if limits is not None and True in res.box_active.tolist():
             by_kind: dict[str, list[str]] = {}
             for j, kind in self.cascade.limit_kinds(res, qd_prev):
                 by_kind.setdefault(kind, []).append(chain.joint_names[j])

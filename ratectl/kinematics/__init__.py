@@ -16,6 +16,7 @@ from .derivatives import jacobian_dot, joint_torques
 from .forward import (
     KERNEL_MODE,
     build_kernel,
+    build_links_kernel,
     check_frame,
     check_point,
     fk,
@@ -32,6 +33,7 @@ from .reference import frames, joint_axes, numerical_jacobian, reference_fk_jaco
 __all__ = [
     "fk", "jacobian", "fk_jacobian", "frames", "joint_axes", "jacobian_dot", "joint_torques",
     "shift_jacobian", "rotate_jacobian", "refer_jacobian", "check_frame", "check_point",
-    "numerical_jacobian", "reference_fk_jacobian", "build_kernel", "kernel_source", "KERNEL_MODE",
+    "numerical_jacobian", "reference_fk_jacobian", "build_kernel", "build_links_kernel", "kernel_source",
+    "KERNEL_MODE",
     "hessian_from_jacobian", "jacobian_hessian", "numerical_hessian",
 ]

@@ -231,6 +231,51 @@ def _symbolic_chain(joints, base: np.ndarray, tool: np.ndarray):
     return em, frame, axes
 
 
+def _symbolic_links(joints, base: np.ndarray, placements: Sequence[tuple[int, np.ndarray]]):
+    """`_symbolic_chain` with several ends: for each placement ``(k, T)`` (1 ≤ k ≤ n) the
+    frame ``T`` after the frame of joint k, forked from the one recursion exactly where the
+    recursion of the sub-chain of the first k joints with tool ``T`` would end (so each
+    end's expressions are those of that sub-chain's own kernel). Returns the emitter and,
+    per placement, its frame and the axes of its k joints."""
+    em = _Emitter()
+    em.phases = [0.0] * len(joints)
+    frame = _Frame(base)
+    pending = np.eye(4)
+    axes: list = []
+    ends: list[tuple[_Frame, list] | None] = [None] * len(placements)
+
+    def fork(k: int) -> None:
+        for m, (kk, T) in enumerate(placements):
+            if kk == k:
+                f = _Frame.__new__(_Frame)
+                f.R, f.p = [row[:] for row in frame.R], frame.p[:]
+                last = pending @ T
+                if not _is_identity(last):
+                    f.apply_constant(em, last)
+                ends[m] = (f, axes[:k])
+
+    for i, joint in enumerate(joints):
+        pending = pending @ joint.pre
+        if not _is_identity(pending):
+            frame.apply_constant(em, pending)
+        pending = np.eye(4)
+        z = [frame.R[r][2] for r in range(3)]
+        o = list(frame.p)
+        axes.append((joint.kind, z, o))
+        pending = joint.post
+        if joint.kind == "revolute":
+            phi, pending = _peel_rz(joint.post)
+            em.phases[i] = phi
+            arg = f"q{i}" if phi == 0.0 else f"q{i} + {phi!r}"
+            c = em.new(f"cos({arg})", prefix="c")
+            s = em.new(f"sin({arg})", prefix="s")
+            frame.apply_rz(em, c, s)
+        else:
+            frame.apply_tz(em, f"q{i}")
+        fork(i + 1)
+    return em, ends
+
+
 def _jacobian_entries(em: _Emitter, frame: _Frame, axes) -> list[list]:
     """6×n symbolic geometric Jacobian at the tool origin, base axes."""
     pn = frame.p
@@ -268,15 +313,32 @@ def _live_lines(em: _Emitter, outputs: list) -> list[tuple[str, str]]:
 
 
 def generate_source(joints: Sequence[Joint], base: np.ndarray, tool: np.ndarray, *, what: str,
-                    batched: bool, guard: bool = False) -> str:
+                    batched: bool, guard: bool = False,
+                    placements: Sequence[tuple[int, np.ndarray]] = ()) -> str:
     """Python source of ``kernel(q0, …, q{n-1})`` or, batched, ``kernel(qT, W)``.
 
     ``what`` is ``"fk"`` (16 pose entries), ``"jac"`` (6n Jacobian entries) or
     ``"fkjac"`` (both). Scalar kernels return a flat tuple of floats; batched
     kernels write the k entries into the first k rows of ``W`` (see `_batched_source`).
+    ``what="links"`` (scalar only): for each of ``placements`` ``(k, T)`` — the frame ``T``
+    after joint k's frame, 1 ≤ k ≤ n — its 16 pose entries and its 6×k Jacobian (the
+    columns of its k joints, row by row), one after the other (``tool`` unused).
     """
-    em, frame, axes = _symbolic_chain(joints, base, tool)
     outputs: list = []
+    if what == "links":
+        em, ends = _symbolic_links(joints, base, placements)
+        for end in ends:
+            assert end is not None, "placements need 1 <= k <= n"
+            f, ax = end
+            for r in range(3):
+                outputs += [f.R[r][0], f.R[r][1], f.R[r][2], f.p[r]]
+            outputs += [0.0, 0.0, 0.0, 1.0]
+            J = _jacobian_entries(em, f, ax)
+            for r in range(6):
+                outputs += J[r]
+        batched = False
+    else:
+        em, frame, axes = _symbolic_chain(joints, base, tool)
     if what in ("fk", "fkjac"):
         for r in range(3):
             outputs += [frame.R[r][0], frame.R[r][1], frame.R[r][2], frame.p[r]]
@@ -693,7 +755,7 @@ _COMPILE_LOCK = threading.Lock()
 
 def compile_kernel(joints: Sequence[Joint], base: ArrayLike, tool: ArrayLike, *, what: str, batched: bool,
                    label: str = "chain", guard: Callable[..., None] | None = None,
-                   chain: Chain | None = None) -> Any:
+                   chain: Chain | None = None, placements: Sequence[tuple[int, np.ndarray]] = ()) -> Any:
     """Compile the generated source; returns the function (its source text in ``__source__``).
 
     The source is registered with `linecache` under a unique file name
@@ -702,12 +764,12 @@ def compile_kernel(joints: Sequence[Joint], base: ArrayLike, tool: ArrayLike, *,
     """
     with _COMPILE_LOCK:
         return _compile_kernel(joints, base, tool, what=what, batched=batched, label=label,
-                               guard=guard, chain=chain)
+                               guard=guard, chain=chain, placements=placements)
 
 
-def _compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str, guard, chain):
+def _compile_kernel(joints, base, tool, *, what: str, batched: bool, label: str, guard, chain, placements):
     src = generate_source(joints, base, tool, what=what, batched=batched,
-                          guard=guard is not None and not batched)
+                          guard=guard is not None and not batched, placements=placements)
     if batched:
         namespace = {"cos": np.cos, "sin": np.sin, "add": np.add, "subtract": np.subtract,
                      "multiply": np.multiply, "negative": np.negative, "copyto": np.copyto,

@@ -50,6 +50,7 @@ __all__ = [
     "check_frame",
     "check_point",
     "build_kernel",
+    "build_links_kernel",
     "kernel_source",
     "KERNEL_MODE",
 ]
@@ -80,6 +81,23 @@ def build_kernel(chain: Chain, key: Any) -> Any:
             fn = compile_kernel(chain.joints, chain.base, chain.tool, what=what, batched=batched,
                                 label=chain.name, guard=check_prismatic_range if
                                 chain.prismatic.any() else None, chain=chain)
+        chain._kernels[key] = fn
+    return fn
+
+
+def build_links_kernel(chain: Chain, key: Any, placements: list[tuple[int, np.ndarray]]) -> Any:
+    """Compile (once per chain and ``key``) the scalar kernel of several links' poses and
+    Jacobians (`ratectl.kinematics.codegen.generate_source` with ``what="links"``: each
+    placement ``(k, T)``, 1 ≤ k ≤ n, gives 16 pose and 6·k Jacobian entries); None in
+    reference mode and for chains beyond `MAX_GENERATED_DOF` (the caller then computes
+    each link on its own)."""
+    fn = chain._kernels.get(key)
+    if fn is None:
+        if KERNEL_MODE == "reference" or chain.dof > MAX_GENERATED_DOF:
+            return None
+        fn = compile_kernel(chain.joints, chain.base, chain.tool, what="links", batched=False,
+                            label=chain.name, guard=check_prismatic_range if chain.prismatic.any() else None,
+                            chain=chain, placements=placements)
         chain._kernels[key] = fn
     return fn
 

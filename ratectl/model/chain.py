@@ -70,6 +70,7 @@ class Chain:
         self._kernels: dict = {}
         self._links = _check_links(links, self._n)
         self._link_chains: dict[str, Chain | None] = {}
+        self._links_plans: dict[tuple, tuple] = {}  # per tuple of links: `fk_jacobian_links`'s kernel
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -284,6 +285,25 @@ class Chain:
     def _link_fk_jacobian(self, q: ArrayLike, link: str, frame: str, point: ArrayLike | None,
                           want_jacobian: bool = True):
         """Pose (..., 4, 4) and Jacobian (..., 6, n) of a named link (zero columns after it)."""
+        if (type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64
+                and frame == "base" and point is None and type(link) is str):
+            # one finite configuration: the link's sub-chain kernel on floats (no check_q,
+            # no slicing copies), as the tool's fast path in `fk_jacobian`
+            sub = self._link_chain(link)
+            v = q.tolist()
+            s = sum(v)
+            if sub is not None and s - s == 0.0:
+                k = sub._n
+                if not want_jacobian:
+                    kern = sub._kernels.get(_FK) or kinematics.build_kernel(sub, _FK)
+                    return _fromiter(kern(*v[:k]), _F64, 16).reshape(4, 4), None
+                kern = sub._kernels.get(_FKJAC) or kinematics.build_kernel(sub, _FKJAC)
+                a = _fromiter(kern(*v[:k]), _F64, 16 + 6 * k)
+                if k == self._n:
+                    return a[:16].reshape(4, 4), a[16:].reshape(6, k)
+                J = np.zeros((6, self._n))
+                J[:, :k] = a[16:].reshape(6, k)
+                return a[:16].reshape(4, 4), J
         a = self.check_q(q)
         sub = self._link_chain(link)
         batch = a.shape[:-1]
@@ -515,6 +535,53 @@ class Chain:
                 a = _fromiter(k(*v), _F64, 16 + 6 * self._n)  # (cheaper than np.array of a tuple)
                 return a[:16].reshape(4, 4), a[16:].reshape(6, self._n)
         return kinematics.fk_jacobian(self, q, frame=frame, point=point)
+
+    def fk_jacobian_links(self, q: ArrayLike,
+                          links: Sequence[str | None]) -> list[tuple[np.ndarray, np.ndarray]]:
+        """``[fk_jacobian(q, link=l) for l in links]`` (``None``: the tool), the same numbers,
+        computed for one configuration (n,) in one pass of the chain: one generated kernel
+        per tuple of links, whose frames branch off one recursion where each link's own
+        recursion would end. Anything else (a batch, a link on the base, reference kernels)
+        is computed link by link."""
+        links = tuple(links)
+        if type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64:
+            v = q.tolist()
+            s = sum(v)
+            if s - s == 0.0:
+                plan = self._links_plans.get(links)
+                if plan is None:
+                    plan = self._links_plan(links)
+                if plan:
+                    kern, ks, size = plan
+                    a = _fromiter(kern(*v), _F64, size)
+                    n = self._n
+                    out = []
+                    o = 0
+                    for k in ks:
+                        T = a[o:o + 16].reshape(4, 4)
+                        Jk = a[o + 16:o + 16 + 6 * k].reshape(6, k)
+                        o += 16 + 6 * k
+                        if k < n:
+                            J = np.zeros((6, n))
+                            J[:, :k] = Jk
+                            Jk = J
+                        out.append((T, Jk))
+                    return out
+        return [self.fk_jacobian(q) if lk is None else self.fk_jacobian(q, link=lk) for lk in links]
+
+    def _links_plan(self, links: tuple) -> tuple:
+        """``(kernel, k per link, output size)`` of `fk_jacobian_links` (``()``: link by link)."""
+        placements = []
+        for lk in links:
+            placements.append((self._n, self._tool) if lk is None else self.link_placement(lk))
+        plan: tuple = ()
+        if self._n and all(k >= 1 for k, _ in placements):
+            kern = kinematics.build_links_kernel(self, ("links", links), placements)
+            if kern is not None:
+                ks = tuple(k for k, _ in placements)
+                plan = (kern, ks, sum(16 + 6 * k for k in ks))
+        self._links_plans[links] = plan
+        return plan
 
     def frames(self, q: ArrayLike) -> np.ndarray:
         """All DH frames ``T_0 … T_n`` in the world, (..., n+1, 4, 4) (T_0 is the base)."""

@@ -39,6 +39,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from operator import gt as _gt
 from operator import lt as _lt
+from operator import sub as _sub
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -129,6 +130,21 @@ class _Infeasible(Exception):
 
 _ACT_TOL = 1e-7  # a bound or row within this (relative) counts as active
 _NO_ROWS = shared_zeros(0, dtype=bool)
+_NO_H = shared_zeros(0)
+_ONE_OF_ONE = np.ones((1, 1))  # the null space of a zero column (one direction, kept)
+_NONE_OF_ONE = np.ones((1, 0))  # the null space of a non-zero column (none)
+for _a in (_ONE_OF_ONE, _NONE_OF_ONE):
+    _a.setflags(write=False)
+_NO_COLUMNS: dict[int, np.ndarray] = {}
+
+
+def _no_columns(n: int) -> np.ndarray:
+    """A basis of no directions, (n, 0) (read-only, one per n)."""
+    z = _NO_COLUMNS.get(n)
+    if z is None:
+        z = _NO_COLUMNS[n] = np.zeros((n, 0))
+        z.setflags(write=False)
+    return z
 
 
 class PriorityCascade:
@@ -176,6 +192,7 @@ class PriorityCascade:
         self._bcache: _BoundCache | None = None
         self._eyes: dict[int, np.ndarray] = {}
         self._kept: dict[tuple, np.ndarray] = {}
+        self._no_rows: dict[int, np.ndarray] = {}  # G (0, n) of a solve without extra rows
         self._projection: np.ndarray | None = None  # the last null-space projection within the box
 
     def __repr__(self) -> str:
@@ -256,12 +273,17 @@ class PriorityCascade:
     def solve_validated(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]], *,
                         limits: Limits | Chain | None, q: np.ndarray | None, qd_prev: np.ndarray | None,
                         dt: float | None,
-                        extra_inequalities: tuple[np.ndarray, np.ndarray] | None = None) -> CascadeResult:
+                        extra_inequalities: tuple[np.ndarray, np.ndarray] | None = None,
+                        stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None = None,
+                        ) -> CascadeResult:
         """`solve` without its checks, for a caller that has made them (the controller's
         tasks stage): ``levels`` are ``(A, b, sw)`` triples of finite float64 arrays, A (m, n),
         b (m,) and ``sw`` (m,) the square roots of the row weights or None (all 1); ``q`` and
         ``qd_prev`` finite float64 (n,) or None; ``dt`` > 0 or None; ``extra_inequalities``
-        ``(G (k, n), h (k,))`` float64 with k ≥ 1, or None. The answer is `solve`'s."""
+        ``(G (k, n), h (k,))`` float64 with k ≥ 1, or None. ``stacked``: when every level's
+        A and b are consecutive row blocks of one (M, n) array and one (M,) vector, and no
+        level has weights, ``(A_all, b_all, ends)`` with ``ends`` each level's last row + 1:
+        the residuals then come from one product. The answer is `solve`'s."""
         n = levels[0][0].shape[1]
         lo, hi = self.box(n, limits, q, qd_prev, dt)
         bc = self._bcache
@@ -269,19 +291,24 @@ class PriorityCascade:
             if bc is None or (a is not bc.vmax and a is not bc.nvmax):
                 a.setflags(write=False)
         if extra_inequalities is None:
-            G, h = np.zeros((0, n)), np.zeros(0)
+            G = self._no_rows.get(n)
+            if G is None:
+                G = self._no_rows[n] = np.zeros((0, n))
+                G.setflags(write=False)
+            h = _NO_H
         else:
             G, h = extra_inequalities
         try:
-            return self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]), n)
+            return self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]) if h.size else _NO_H, n,
+                                 stacked=stacked)
         except _Infeasible:
             if not h.size:
                 raise SolverError(f"the priority cascade's first level failed on backend "
                                   f"{self.backend!r}", status="failed") from None
         relaxed, feasible = self._relaxation(lo, hi, G, h)
-        return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible)
+        return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible, stacked=stacked)
 
-    def _cascade(self, lv, lo, hi, G, h, relaxed, n, fallback=None) -> CascadeResult:
+    def _cascade(self, lv, lo, hi, G, h, relaxed, n, fallback=None, stacked=None) -> CascadeResult:
         """The levels in order; ``fallback`` (a q̇ known to satisfy the box and the rows)
         stands in for the first level's QP if its backend finds no point (a relaxed problem
         on the edge of its tolerance).
@@ -294,9 +321,10 @@ class PriorityCascade:
         the weighted rows in the free directions) solved by one Cholesky (LAPACK
         ``dposv``); the null space for the next level from one SVD of M (``dgesdd``),
         skipped after the last level. Neither depends on q̇, so the second pass reuses them."""
-        lo_l = (lo - 1e-12).tolist()
-        hi_l = (hi + 1e-12).tolist()
-        x_zero = max(lo_l) <= -1e-12 and min(hi_l) >= 1e-12  # the box holds q̇ = 0
+        lo_f, hi_f = lo.tolist(), hi.tolist()
+        # the box holds q̇ = 0 (within the 1e-12 of its test: the largest lo_i − 1e-12 is
+        # max(lo) − 1e-12, rounding being monotone)
+        x_zero = max(lo_f) - 1e-12 <= -1e-12 and min(hi_f) + 1e-12 >= 1e-12
         x0 = np.zeros(n) if x_zero else np.minimum(np.maximum(lo, 0.0), hi)
         lam2 = self.damping**2
         nlev = len(lv)
@@ -322,11 +350,15 @@ class PriorityCascade:
                 rhs = b - A @ x
                 if sw is not None:
                     rhs *= sw
-                hh = float(mv.dot(mv)) + lam2
+                mm = float(mv.dot(mv))
+                hh = mm + lam2
                 t = (float(mv.dot(rhs)) - lam2 * float(v.dot(x))) / hh if hh > 0.0 else 0.0
                 M = mv[:, None]
-                V = _null_space(M, self.tolerance) if k + 1 < nlev else None
-                parts.append((Z, M, np.array([[hh]]), V))
+                V = None
+                if k + 1 < nlev:  # `_null_space` of one column: its norm is its singular value
+                    s1 = math.sqrt(mm)
+                    V = _ONE_OF_ONE if s1 <= self.tolerance * max(1.0, s1) else _NONE_OF_ONE
+                parts.append((Z, M, hh, V))  # (H = [[hh]], made in pass 2 if needed)
                 x = x + v * t
             else:
                 M = Mw if Z is None else Mw @ Z
@@ -335,18 +367,35 @@ class PriorityCascade:
                     H += self._lam2_eye(r)
                 V = _null_space(M, self.tolerance) if k + 1 < nlev else None
                 parts.append((Z, M, H, V))
-                z = _spd_solve(H, self._gradient(A, b, sw, M, Z, x, start_zero, lam2))
-                x = x + (z if Z is None else Z @ z)
+                if start_zero and Z is None and sw is None:  # (the first level from q̇ = 0: g = Mᵀb)
+                    x = _spd_solve(H, M.T @ b)
+                else:
+                    z = _spd_solve(H, self._gradient(A, b, sw, M, Z, x, start_zero, lam2))
+                    x = x + (z if Z is None else Z @ z)
             start_zero = False
             if V is not None:
-                Z = V if Z is None else Z @ V
+                if V is _NONE_OF_ONE:  # (Z @ V without the product: no direction left)
+                    Z = _no_columns(n)
+                elif V is not _ONE_OF_ONE:  # (the one direction stays)
+                    Z = V if Z is None else Z @ V
         cl = x.tolist()
-        ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
+        # within the box: strictly (then the clip below changes nothing), else within the
+        # 1e-12 of the test
+        inside = not (any(map(_lt, cl, lo_f)) or any(map(_gt, cl, hi_f)))
+        lo_l = hi_l = None
+        ok = inside
+        if not inside:
+            lo_l = [v - 1e-12 for v in lo_f]
+            hi_l = [v + 1e-12 for v in hi_f]
+            ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
         self._projection = x if ok else None  # (within the box: the answer without the rows)
         if ok and have_rows:
             ok = bool((G @ x <= h_tol).all())
         qps = [False] * nlev
         if not ok:
+            if lo_l is None:
+                lo_l = [v - 1e-12 for v in lo_f]
+                hi_l = [v + 1e-12 for v in hi_f]
             # pass 2: each level's answer within the box and the rows
             x = x0
             start_zero = x_zero
@@ -357,23 +406,39 @@ class PriorityCascade:
                 x, qps[k] = self._solve_level(A, b, sw, part, x, start_zero, lam2, k + 1 < nlev, lo, hi,
                                               lo_l, hi_l, G, h, h_tol, n, fallback)
                 start_zero = False
-        x = np.minimum(np.maximum(x, lo), hi)
-        res = _residuals(lv, x)
-        span = np.abs(hi) + np.abs(lo)
-        box_active = np.minimum(hi - x, x - lo) <= _ACT_TOL * np.maximum(span, 1.0, out=span)
+        # q̇ clipped into the box, and the joints on a face of it (within _ACT_TOL of the
+        # box's span): on Python floats (a few joints; cheaper than numpy's calls)
+        if ok and inside:
+            xl = cl  # (the first pass's answer, strictly inside: the clip is the identity)
+        else:
+            xl = list(map(min, map(max, x.tolist(), lo_f), hi_f))
+            x = np.array(xl)
+        res = _residuals(lv, x) if stacked is None else _stacked_residuals(stacked, x)
+        box_active = self._box_active(xl, lo_f, hi_f)
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
         return _owned_result(x, res, self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
                              box_active, rows_active, relaxed, self.backend)
+
+    def _box_active(self, xl: list[float], lo_f: list[float], hi_f: list[float]) -> np.ndarray:
+        """The joints within ``_ACT_TOL · max(|hi| + |lo|, 1)`` of a face of the box (read-only
+        bool (n,)): none when every joint is farther than the largest of these tolerances from
+        both faces (two passes on floats), else joint by joint."""
+        tol = _ACT_TOL * max(max(map(abs, hi_f)) + max(map(abs, lo_f)), 1.0)
+        if min(map(_sub, hi_f, xl)) > tol and min(map(_sub, xl, lo_f)) > tol:
+            return shared_zeros(len(xl), dtype=bool)
+        return self._frozen([min(u - v, v - w) <= _ACT_TOL * max(abs(u) + abs(w), 1.0)
+                             for v, w, u in zip(xl, lo_f, hi_f, strict=True)], bool)
 
     def _frozen(self, values: list, dtype: type) -> np.ndarray:
         """``values`` as a read-only array, one kept per distinct list (a cascade sees few)."""
         key = (dtype, tuple(values))
         a = self._kept.get(key)
         if a is None:
-            if len(self._kept) > 64:
+            if len(self._kept) > 256:
                 self._kept.clear()
-            a = self._kept[key] = np.array(values, dtype=dtype)
-            a.setflags(write=False)
+            base: np.ndarray = np.array(values, dtype=dtype)
+            base.setflags(write=False)
+            a = self._kept[key] = base.view()  # (a view: numpy refuses to make it writeable)
         return a
 
     def residuals_without_rows(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]],
@@ -409,6 +474,8 @@ class PriorityCascade:
         column) takes the line's least-norm point inside the box and the rows, and anything
         else the backend's QP."""
         Z, M, H, V = part
+        if type(H) is float:  # (a level with one free direction keeps its 1×1 H as a float)
+            H = np.array([[H]])
         r = H.shape[0]
         g = self._gradient(A, b, sw, M, Z, x, x_zero, lam2)
         z = _spd_solve(H, g)
@@ -570,6 +637,20 @@ def _residuals(levels, x: np.ndarray) -> np.ndarray:
     return np.array(res)
 
 
+def _stacked_residuals(stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]], x: np.ndarray) -> np.ndarray:
+    """`_residuals` of unweighted levels stacked in one array (see `solve_validated`):
+    ``A_all x − b_all`` once, then each level's norm on its rows."""
+    A, b, ends = stacked
+    d = A @ x - b
+    out = []
+    i = 0
+    for j in ends:
+        di = d[i:j]
+        out.append(math.sqrt(di.dot(di)))
+        i = j
+    return np.array(out)
+
+
 def _spd_solve(H: np.ndarray, g: np.ndarray) -> np.ndarray:
     """H⁻¹g for a symmetric positive (semi)definite H: Cholesky (LAPACK ``dposv``), the
     least-squares answer where H is singular (λ = 0 and rank-deficient rows)."""
@@ -629,10 +710,12 @@ def _owned_result(qd, residuals, qps, freedom, lo, hi, box_active, rows_active, 
     copied (``qps`` and ``freedom`` read-only already; the box is copied by `read_only` only
     where it is writable)."""
     for a in (qd, residuals, box_active, rows_active, relaxed):
-        a.setflags(write=False)
+        if a.flags.writeable:
+            a.setflags(write=False)
     r = object.__new__(CascadeResult)
     object.__setattr__(r, "__dict__", {"qd": qd, "residuals": residuals, "qps": qps, "freedom": freedom,
-                                       "lower": read_only(lo), "upper": read_only(hi),
+                                       "lower": lo if not lo.flags.writeable else read_only(lo),
+                                       "upper": hi if not hi.flags.writeable else read_only(hi),
                                        "box_active": box_active, "rows_active": rows_active,
                                        "relaxed": relaxed, "backend": backend})
     return r

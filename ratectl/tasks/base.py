@@ -164,6 +164,9 @@ class FrameTask(Task):
         self._twist = np.zeros(6)
         self._has_twist = False
         self._e = np.empty(6)  # the pose error of the last fill (Position, Orientation)
+        # (pose, Jacobian) of the frame at this cycle's q, set just before `_fill` by a caller
+        # that computes several tasks' frames in one pass (the controller's tasks stage)
+        self._frame_now: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def has_target(self) -> bool:
@@ -194,12 +197,21 @@ class FrameTask(Task):
         if self._target is None:
             raise InputError(f"{self!r} has no target: call set_target first", argument="target",
                              value=None)
-        T, J = self.frame(chain, q)
+        pre = self._frame_now
+        if pre is not None:  # (computed with the other tasks' frames by the controller)
+            T, J = pre
+            self._frame_now = None
+        else:
+            T, J = self.frame(chain, q)
         r = self._rows
         if r.start == 0 and r.stop == 6:  # the full pose: the error straight into e
             ep, th = pose_error_into(e, self._target, T)
             norm = math.sqrt(ep * ep + th * th)
             np.multiply(e, self.gain * s, out=b)
+            np.multiply(J, s, out=A)
+            if self._has_twist:
+                b += s * self._twist
+            return norm
         elif r.stop == 3:  # the position alone: p_d − p (no rotation error to compute)
             np.subtract(self._target[:3, 3], T[:3, 3], out=e)
             norm = math.sqrt(float(e.dot(e)))

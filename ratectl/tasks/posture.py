@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+from operator import gt as _gt
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
+from ..model.limits import braking_speed_scalar
 from .base import Task, TaskRows, check_vector
 
 if TYPE_CHECKING:
@@ -19,7 +21,18 @@ __all__ = ["Posture"]
 
 class Posture(Task):
     """Bring the joints to a reference configuration: ``A = I``, ``b = K (q_ref − q)``
-    [rad/s or m/s] (n rows; only the joints of ``joints`` when given).
+    [rad/s or m/s] (n rows; only the joints of ``joints`` when given), each joint's speed
+    bounded by the one from which it can stop within its error:
+
+        b_i = sign(e_i) · min(K |e_i|, v_stop(|e_i|)),   e = q_ref − q,
+
+    with ``v_stop`` the jerk-limited braking speed of the joint's amax and jmax
+    (`ratectl.model.limits.braking_speed`; √(2·amax·|e|) without jmax, no bound without
+    amax). Below ``|e_i| = e*`` the law is the linear ``K e_i``: e* = jmax/K³ when
+    jmax ≤ amax·K, else 2·amax/K² − amax²/(jmax·K). A high gain on a large error would
+    otherwise ask for more than the joint can brake from: the joint overshoots, reverses at
+    vmax, and a smoothing filter, which shapes each joint on its own, leaves the direction
+    the levels above left free while it reverses (the tool moves).
 
     A posture on the lowest level fixes the motion the higher levels leave free (a 7-axis
     arm's elbow), so the answer is unique.
@@ -37,6 +50,9 @@ class Posture(Task):
                                                                "[rad or m]")
         self._joints = None if joints is None else np.asarray(joints, dtype=int).ravel()
         self._A: tuple[tuple[int, float], np.ndarray] | None = None  # the scaled rows of I, kept
+        self._estar: tuple | None = None  # (amax, jmax, gain, e* per joint, amax, jmax lists)
+        self._rows_in: tuple | None = None  # (A, key): the array whose rows were last written
+        self._valid: tuple | None = None  # (q_ref, chain, rows): the last q_ref checked on a chain
 
     @property
     def has_target(self) -> bool:
@@ -65,9 +81,34 @@ class Posture(Task):
                              f"{self._joints.tolist()}", argument="joints", value=self._joints)
         return self._q_ref
 
+    def _brake(self, chain: Chain, e: np.ndarray, b: np.ndarray, s: float) -> None:
+        """Bound ``b`` (= K·s·e) to ``s·v_stop(|e_i|)`` where the error is past e* (see the
+        class docstring); e* per joint is kept per (chain limits, gain)."""
+        K = self.gain
+        amax, jmax = chain.amax, chain.jmax
+        c = self._estar
+        if c is None or c[0] is not amax or c[1] is not jmax or c[2] != K:
+            j = slice(None) if self._joints is None else self._joints
+            al, jl = amax[j].tolist(), jmax[j].tolist()
+            c = self._estar = (amax, jmax, K, [_linear_up_to(K, a, jj) for a, jj in zip(al, jl, strict=True)],
+                               al, jl)
+        estar = c[3]
+        el = e.tolist()
+        if not any(map(_gt, map(abs, el), estar)):
+            return  # every joint within its linear range (the common case)
+        al, jl = c[4], c[5]
+        for i, (ei, es) in enumerate(zip(el, estar, strict=True)):
+            if abs(ei) > es:
+                v = min(K * abs(ei), braking_speed_scalar(abs(ei), al[i], jl[i]))
+                b[i] = s * math.copysign(v, ei)
+
     def _row_count(self, chain: Chain, q: np.ndarray) -> int:
-        self._checked(chain)
-        return chain.dof if self._joints is None else int(self._joints.size)
+        v = self._valid
+        if v is None or v[0] is not self._q_ref or v[1] is not chain:  # (checked once per target)
+            self._checked(chain)
+            self._valid = (self._q_ref, chain, chain.dof if self._joints is None else int(self._joints.size))
+            v = self._valid
+        return v[2]
 
     def rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
         """``A = I`` (the rows of ``joints``), ``b = K (q_ref − q)``."""
@@ -76,7 +117,9 @@ class Posture(Task):
     def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
               s: float) -> float:
         """``A = I`` (the rows of ``joints``), ``e = q_ref − q``, ``b = K e`` (scaled by s)."""
-        q_ref = self._checked(chain)
+        q_ref = self._q_ref  # (checked against the chain by _row_count, asked first every cycle)
+        if q_ref is None:
+            q_ref = self._checked(chain)  # raises
         j = self._joints
         n = chain.dof
         if j is None:
@@ -84,9 +127,26 @@ class Posture(Task):
         else:
             e[...] = q_ref[j] - q[j]
         np.multiply(e, self.gain * s, out=b)
+        self._brake(chain, e, b, s)
         key = (n, s)
         if self._A is None or self._A[0] != key:
             rows = np.eye(n) * s
             self._A = (key, rows if j is None else rows[j])
-        A[...] = self._A[1]
+        w = self._rows_in
+        if w is None or w[0] is not A or w[1] != key:  # (the controller's level arrays keep them)
+            A[...] = self._A[1]
+            self._rows_in = (A, key)
         return math.sqrt(float(e.dot(e)))
+
+
+def _linear_up_to(K: float, amax: float, jmax: float) -> float:
+    """e* [rad or m]: the error up to which ``K·e`` is at most the braking speed
+    `braking_speed_scalar` (e, amax, jmax) — where ``K e = (e²·jmax)^{1/3}`` (jmax ≤ amax·K)
+    or ``K e = (−k + √(k² + 8·amax·e))/2`` with k = amax²/jmax (otherwise); inf for K = 0
+    and without both limits."""
+    K3 = K * K * K
+    if K3 == 0.0:  # no gain (or one so small that K³ underflows): never bounded
+        return math.inf
+    if jmax <= amax * K:
+        return jmax / K3
+    return 2.0 * amax / (K * K) - amax * amax / (jmax * K)
