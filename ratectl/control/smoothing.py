@@ -274,23 +274,43 @@ class VelocityFilter:
         return self._absolute(vt, at_rest)
 
 
-class ProgressProfile:
-    """A scalar, jerk-limited motion toward a goal distance, one period at a time (Ruckig's
-    position interface with one degree of freedom): the controller's approach to a target
-    plans its progress x [m, rad or a mix, as the pose error] with it, so that the motion
-    comes to rest at the target within the (mapped) joint limits."""
+class _OneAxis:
+    """Ruckig with one degree of freedom, one period at a time: the shared state of
+    `ProgressProfile` (position interface) and `SpeedProfile` (velocity interface)."""
 
-    def __init__(self, dt: float) -> None:
+    def __init__(self, dt: float, *, velocity: bool = False) -> None:
         import ruckig
 
         self._ruckig = ruckig
         self._otg = ruckig.Ruckig(1, float(dt))
         self._inp = ruckig.InputParameter(1)
         self._out = ruckig.OutputParameter(1)
+        if velocity:
+            self._inp.control_interface = ruckig.ControlInterface.Velocity
         self._inp.current_position = [0.0]
-        self._inp.target_velocity = [0.0]
         self._inp.target_acceleration = [0.0]
         self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
+
+    def _update(self, dt: float):
+        """One update of period ``dt``: the output, or None if Ruckig finds no motion."""
+        if self._otg.delta_time != dt:
+            self._otg.delta_time = dt
+        try:
+            res = self._otg.update(self._inp, self._out)
+        except self._ruckig.RuckigError:
+            return None
+        return self._out if res in self._ok else None
+
+
+class ProgressProfile(_OneAxis):
+    """A scalar, jerk-limited motion toward a goal distance, one period at a time (Ruckig's
+    position interface with one degree of freedom): the controller's approach to a target
+    plans its progress x [m, rad or a mix, as the pose error] with it, so that the motion
+    comes to rest at the target within the (mapped) joint limits."""
+
+    def __init__(self, dt: float) -> None:
+        super().__init__(dt)
+        self._inp.target_velocity = [0.0]
 
     def step(self, x: float, v: float, a: float, *, vmax: float, amax: float, jmax: float,
              dt: float, brake: float | None = None, v_end: float = 0.0):
@@ -299,8 +319,6 @@ class ProgressProfile:
         |ẋ| ≤ vmax, |x⃛| ≤ jmax, accelerating toward ``x`` by at most ``amax`` and
         decelerating by at most ``brake`` (default amax): returns its (progress, speed,
         acceleration) one period ``dt`` later, or None if Ruckig finds no motion."""
-        if self._otg.delta_time != dt:
-            self._otg.delta_time = dt
         inp = self._inp
         inp.target_velocity = [min(max(v_end, 0.0), vmax)]
         inp.current_velocity = [v]
@@ -314,17 +332,13 @@ class ProgressProfile:
             lo, hi = -amax, brake
         inp.max_acceleration, inp.min_acceleration = [hi], [lo]
         inp.current_acceleration = [min(max(a, lo), hi)]
-        try:
-            res = self._otg.update(inp, self._out)
-        except self._ruckig.RuckigError:
+        out = self._update(dt)
+        if out is None:
             return None
-        if res not in self._ok:
-            return None
-        out = self._out
         return out.new_position[0], out.new_velocity[0], out.new_acceleration[0]
 
 
-class SpeedProfile:
+class SpeedProfile(_OneAxis):
     """A scalar, jerk-limited speed toward a goal speed, one period at a time (Ruckig's
     velocity interface with one degree of freedom). A smoothed jog moves its fraction c of
     the commanded twist with it, so that the joint motion c·w it commands is a reference
@@ -332,36 +346,20 @@ class SpeedProfile:
     lagging each joint on its own, which turns the tool off the commanded direction."""
 
     def __init__(self, dt: float) -> None:
-        import ruckig
-
-        self._ruckig = ruckig
-        self._otg = ruckig.Ruckig(1, float(dt))
-        self._inp = ruckig.InputParameter(1)
-        self._out = ruckig.OutputParameter(1)
-        self._inp.control_interface = ruckig.ControlInterface.Velocity
-        self._inp.current_position = [0.0]
-        self._inp.target_acceleration = [0.0]
-        self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
+        super().__init__(dt, velocity=True)
 
     def step(self, v: float, a: float, goal: float, *, amax: float, jmax: float, dt: float):
         """From speed ``v`` and acceleration ``a``, the time-optimal jerk-limited motion to the
         speed ``goal`` at rest acceleration, |v̇| ≤ ``amax``, |v̈| ≤ ``jmax``: returns its
         (speed, acceleration) one period ``dt`` later, or None if Ruckig finds no motion."""
-        if self._otg.delta_time != dt:
-            self._otg.delta_time = dt
         inp = self._inp
         inp.current_velocity = [v]
         inp.current_acceleration = [min(max(a, -amax), amax)]
         inp.target_velocity = [goal]
         inp.max_acceleration = [amax]
         inp.max_jerk = [jmax]
-        try:
-            res = self._otg.update(inp, self._out)
-        except self._ruckig.RuckigError:
-            return None
-        if res not in self._ok:
-            return None
-        return self._out.new_velocity[0], self._out.new_acceleration[0]
+        out = self._update(dt)
+        return None if out is None else (out.new_velocity[0], out.new_acceleration[0])
 
 
 @dataclass(frozen=True, kw_only=True)

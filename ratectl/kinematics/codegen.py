@@ -206,29 +206,37 @@ def _symbolic_chain(joints, base: np.ndarray, tool: np.ndarray):
     em.phases = [0.0] * len(joints)
     frame = _Frame(base)
     pending = np.eye(4)
-    axes = []
+    axes: list = []
     for i, joint in enumerate(joints):
-        pending = pending @ joint.pre
-        if not _is_identity(pending):
-            frame.apply_constant(em, pending)
-        pending = np.eye(4)
-        z = [frame.R[r][2] for r in range(3)]
-        o = list(frame.p)
-        axes.append((joint.kind, z, o))
-        pending = joint.post
-        if joint.kind == "revolute":
-            phi, pending = _peel_rz(joint.post)
-            em.phases[i] = phi
-            arg = f"q{i}" if phi == 0.0 else f"q{i} + {phi!r}"
-            c = em.new(f"cos({arg})", prefix="c")
-            s = em.new(f"sin({arg})", prefix="s")
-            frame.apply_rz(em, c, s)
-        else:
-            frame.apply_tz(em, f"q{i}")
+        pending = _emit_joint(em, frame, axes, i, joint, pending)
     pending = pending @ tool
     if not _is_identity(pending):
         frame.apply_constant(em, pending)
     return em, frame, axes
+
+
+def _emit_joint(em: _Emitter, frame: _Frame, axes: list, i: int, joint, pending: np.ndarray) -> np.ndarray:
+    """One step of the symbolic recursion: the constant ``pending`` transform and joint
+    ``i``'s ``pre`` applied to ``frame``, the joint's axis recorded in ``axes``, then its
+    motion (a revolute angle with its peeled offset, or a prismatic translation); returns
+    the constant transform still pending after the joint (its ``post``)."""
+    pending = pending @ joint.pre
+    if not _is_identity(pending):
+        frame.apply_constant(em, pending)
+    z = [frame.R[r][2] for r in range(3)]
+    o = list(frame.p)
+    axes.append((joint.kind, z, o))
+    pending = joint.post
+    if joint.kind == "revolute":
+        phi, pending = _peel_rz(joint.post)
+        em.phases[i] = phi
+        arg = f"q{i}" if phi == 0.0 else f"q{i} + {phi!r}"
+        c = em.new(f"cos({arg})", prefix="c")
+        s = em.new(f"sin({arg})", prefix="s")
+        frame.apply_rz(em, c, s)
+    else:
+        frame.apply_tz(em, f"q{i}")
+    return pending
 
 
 def _symbolic_links(joints, base: np.ndarray, placements: Sequence[tuple[int, np.ndarray]]):
@@ -255,23 +263,7 @@ def _symbolic_links(joints, base: np.ndarray, placements: Sequence[tuple[int, np
                 ends[m] = (f, axes[:k])
 
     for i, joint in enumerate(joints):
-        pending = pending @ joint.pre
-        if not _is_identity(pending):
-            frame.apply_constant(em, pending)
-        pending = np.eye(4)
-        z = [frame.R[r][2] for r in range(3)]
-        o = list(frame.p)
-        axes.append((joint.kind, z, o))
-        pending = joint.post
-        if joint.kind == "revolute":
-            phi, pending = _peel_rz(joint.post)
-            em.phases[i] = phi
-            arg = f"q{i}" if phi == 0.0 else f"q{i} + {phi!r}"
-            c = em.new(f"cos({arg})", prefix="c")
-            s = em.new(f"sin({arg})", prefix="s")
-            frame.apply_rz(em, c, s)
-        else:
-            frame.apply_tz(em, f"q{i}")
+        pending = _emit_joint(em, frame, axes, i, joint, pending)
         fork(i + 1)
     return em, ends
 
