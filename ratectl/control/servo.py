@@ -321,6 +321,9 @@ class Servo:
             return
         if self._joint_line.target is not None:
             return  # on its way in joint space (taken this period, where the line is blocked)
+        ap = self._straight
+        if not self._pursuit and ap.target is not None and ap.s < ap.L and ap.sdd > 0.0:
+            return  # the line's progress speeds up: on its way (from rest, its first periods are slow)
         # stopped short: below 1 % of that, now and one time constant ahead (an arm that
         # creeps toward a singular target, damped, is still on its way); once said for this
         # target, below 10 % (the last settling does not flicker back to "regular")
@@ -336,4 +339,5 @@ class Servo:
         cyc.flags.insert(0, "target-unreachable")
         cyc.reasons.insert(0, f"stopped at a best effort {cyc.ep * 1e3:.3g} mm / "
                            f"{math.degrees(cyc.eo):.3g}° from the target: no motion within the limits "
-                           "lowers the pose error from here (the target is out of reach)")
+                           "lowers the pose error from here (out of reach, or held by a limit or "
+                           "a local minimum)")
