@@ -13,10 +13,9 @@ import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.linalg import lapack as _lapack
 
 from ..singularity import analyze
-from ..solvers.base import Solver, SolveResult, sigma_at_least
+from ..solvers.base import Solver, SolveResult, sigma_at_least, svd_values, thin_svd
 from .cycle import Cycle
 from .progress import ProgressLimits
 
@@ -29,7 +28,6 @@ __all__ = ["ProgressStage"]
 
 _SHARE = 0.5  # share of amax (and jmax) the progress of an approach or a jog may use itself
 _KIND_NEAR = 0.5  # the σ band in which `analyze` names the singularity a progress stops before
-_dgesdd = _lapack.dgesdd
 
 
 class ProgressStage:
@@ -69,7 +67,7 @@ class ProgressStage:
 
     def exact_direction(self, q: np.ndarray, d: np.ndarray, J_at: tuple | None = None, *,
                         share: bool = True) -> tuple[float, float]:
-        """(σ_min, share) at ``q`` from one SVD J = U S Vᵀ (LAPACK's dgesdd): σ_min(J), and
+        """(σ_min, share) at ``q`` from one thin SVD J = U S Vᵀ (`thin_svd`): σ_min(J), and
         the share of the exact joint speed |J⁺d|² = Σ (uᵢ·d / σᵢ)² that goes into the
         weakest direction (the singularity look-ahead of `ProgressLimits`: is ``d`` being
         lost?). ``J_at`` = (q₀, J(q₀)): the cycle's own Jacobian, used when ``q`` is q₀.
@@ -78,13 +76,9 @@ class ProgressStage:
         if J.shape[1] < 6:
             return 0.0, 1.0
         if not share:
-            _, S, _, info = _dgesdd(J, compute_uv=0)
-            if info != 0:
-                S = np.linalg.svd(J, compute_uv=False)
+            S = svd_values(J)
             return (float(S[-1]) if S[-1] > S[0] * 1e-12 else 0.0), math.nan
-        U, S, _, info = _dgesdd(J, full_matrices=0)
-        if info != 0:
-            U, S, _ = np.linalg.svd(J, full_matrices=False)
+        U, S, _ = thin_svd(J)
         if not S[-1] > S[0] * 1e-12:
             return 0.0, 1.0
         c = d.dot(U) / S

@@ -570,6 +570,24 @@ def validated_solve_generic(solver: Any, J: np.ndarray, xi: np.ndarray, *, limit
     return solver.solve(J, xi, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
 
 
+def thin_svd(J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Thin SVD J = U diag(s) Vᵀ: (U (m, k), s (k,) descending, Vᵀ (k, n)), k = min(m, n),
+    through LAPACK's dgesdd; raises ``np.linalg.LinAlgError`` if it does not converge."""
+    u, s, vt, info = _dgesdd(J, compute_uv=1, full_matrices=0)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"SVD did not converge (dgesdd info {info})")
+    return u, s, vt
+
+
+def svd_values(J: np.ndarray) -> np.ndarray:
+    """The singular values of J (min(m, n),), descending, without the vectors (dgesdd);
+    raises ``np.linalg.LinAlgError`` if it does not converge."""
+    _, s, _, info = _dgesdd(J, compute_uv=0)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"SVD did not converge (dgesdd info {info})")
+    return s
+
+
 def min_norm_direction(J: np.ndarray, d: np.ndarray,
                        col_scale: np.ndarray | None = None) -> np.ndarray | None:
     """The exact direction w with J w = d in the least-squares sense, for J (m, n) of full

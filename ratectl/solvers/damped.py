@@ -22,8 +22,8 @@ from .base import (
     _positive,
     exact_direction_floor,
     min_norm_direction,
+    thin_svd,
 )
-from .exact import _svd
 
 __all__ = ['DLS', 'AdaptiveDLS', 'SDLS', 'adaptive_damping']
 
@@ -255,7 +255,7 @@ class AdaptiveDLS(Solver):
         return qd, lam, sigma, info_d
 
     def _filtered(self, J, xi):
-        u, s, vt = _svd(J)
+        u, s, vt = thin_svd(J)
         s2 = s * s
         lam2 = np.maximum(1.0 - s2 * self._ie2, 0.0) * self._lm2
         lam = np.sqrt(lam2)
@@ -331,7 +331,7 @@ class SDLS(Solver):
             Js, xs = J * self._S[:, None], xi * self._S
         else:
             Js, xs = J, xi
-        u, s, vt = _svd(Js)
+        u, s, vt = thin_svd(Js)
         k = s.shape[0]
         nb = -(-m // 3)
         pad = 3 * nb - m

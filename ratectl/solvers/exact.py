@@ -7,20 +7,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError, SingularityError
-from .base import Solver, _check_finite, _dgesdd, _dgesv, _positive
+from .base import Solver, _check_finite, _dgesv, _positive, svd_values, thin_svd
 
 __all__ = ['Inverse', 'PseudoInverse']
 
 
 # --------------------------------------------------------------------------- linear algebra
-def _svd(J):
-    """Thin SVD (U (m,k), s (k,), Vt (k,n)) through LAPACK dgesdd."""
-    u, s, vt, info = _dgesdd(J, compute_uv=1, full_matrices=0)
-    if info != 0:
-        raise np.linalg.LinAlgError(f"SVD did not converge (dgesdd info {info})")
-    return u, s, vt
-
-
 # --------------------------------------------------------------------------- solvers
 class Inverse(Solver):
     """Exact inverse q̇ = J⁻¹ξ for a square J.
@@ -42,10 +34,7 @@ class Inverse(Solver):
         if m != n:
             raise InputError(f"the exact inverse needs a square J, got {J.shape}; use "
                              "PseudoInverse, DLS or QP for m != n", argument="J", value=J)
-        _, s, _, info = _dgesdd(J, compute_uv=0)
-        if info != 0:
-            raise np.linalg.LinAlgError(f"SVD did not converge (dgesdd info {info})")
-        smin = float(s[-1])
+        smin = float(svd_values(J)[-1])
         if not smin >= self.tolerance:
             _check_finite(J, xi)
             raise SingularityError(
@@ -77,7 +66,7 @@ class PseudoInverse(Solver):
         self.tolerance = _positive("tolerance", tolerance, allow_zero=True)
 
     def _raw(self, J, xi):
-        u, s, vt = _svd(J)
+        u, s, vt = thin_svd(J)
         keep = s > self.tolerance
         coef = np.zeros_like(s)
         coef[keep] = (xi @ u[:, keep]) / s[keep]

@@ -10,8 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
-from .base import Solver, SolveResult, _check_problem, _make_result, _positive
-from .exact import _svd
+from .base import Solver, SolveResult, _check_problem, _make_result, _positive, thin_svd
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -155,7 +154,7 @@ class NullSpace(Solver):
         if z.shape != (n,) or not np.all(np.isfinite(z)):
             raise InputError(f"the secondary objective must return a finite ({n},) vector, got "
                              f"shape {z.shape}", argument="objective", value=z)
-        _, s, vt = _svd(J)
+        _, s, vt = thin_svd(J)
         Vr = vt[s > self.tolerance]
         zp = z - (z @ Vr.T) @ Vr
         qd = p.qd + self.gain * zp
