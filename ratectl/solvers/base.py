@@ -588,24 +588,26 @@ def svd_values(J: np.ndarray) -> np.ndarray:
     return s
 
 
-def min_norm_direction(J: np.ndarray, d: np.ndarray,
-                       col_scale: np.ndarray | None = None) -> np.ndarray | None:
+def min_norm_direction(J: np.ndarray, d: np.ndarray, col_scale: np.ndarray | None = None, *,
+                       gram: np.ndarray | None = None) -> np.ndarray | None:
     """The exact direction w with J w = d in the least-squares sense, for J (m, n) of full
     rank: the minimum-norm solution w = S (J S)ᵀ ((J S)(J S)ᵀ)⁻¹ d when m ≤ n (S =
     diag(``col_scale``), the norm ‖S⁻¹w‖; S = I without it), else (JᵀJ)⁻¹Jᵀd. One Cholesky
-    solve of the smaller Gram matrix; None when it is not positive definite or w is not
+    solve of the smaller Gram matrix (``gram``: that matrix, J Jᵀ or JᵀJ, when the caller
+    has it; without ``col_scale``); None when it is not positive definite or w is not
     finite (J rank-deficient to working precision)."""
     m, n = J.shape
     Js = J if col_scale is None else J * col_scale
+    assert gram is None or col_scale is None, "gram= is J's own Gram matrix (no col_scale)"
     if m <= n:
-        _, y, info = _dposv(Js.dot(Js.T), d)
+        _, y, info = _dposv(Js.dot(Js.T) if gram is None else gram, d)
         if info != 0:
             return None
         w = y.dot(Js)
         if col_scale is not None:
             w *= col_scale
     else:
-        _, w, info = _dposv(J.T.dot(J), d.dot(J))
+        _, w, info = _dposv(J.T.dot(J) if gram is None else gram, d.dot(J))
         if info != 0:
             return None
     t = sum(w.tolist())

@@ -50,9 +50,10 @@ def exact_direction(solver: Solver, J: np.ndarray, d: np.ndarray, *, q: np.ndarr
     (lazily); below, the solver's own answer (`Solver.solve_direction`, through ``solve``)."""
     Jw, dw = solver._apply_weights(J, d) if solver._weighted else (J, d)
     m, n = Jw.shape
-    sigma = _LazySigma(_dot(Jw, Jw.T) if m <= n else _dot(Jw.T, Jw))
+    G = _dot(Jw, Jw.T) if m <= n else _dot(Jw.T, Jw)  # the Gram matrix of σ_min and of w
+    sigma = _LazySigma(G)
     if sigma.value() >= exact_direction_floor(J=Jw):
-        w = min_norm_direction(Jw, dw)
+        w = min_norm_direction(Jw, dw, gram=G)
         if w is not None:
             return (w if solver._isw is None else w * solver._isw), sigma, 0.0
     return Solver.solve_direction(solver, J, d, q=q, dt=dt)
