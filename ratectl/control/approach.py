@@ -29,7 +29,7 @@ import numpy as np
 from ..model.limits import stopping_distance
 from ..spatial import so3_exp_rows, so3_log_rows
 from .progress import ProgressCaps
-from .smoothing import ProgressProfile
+from .smoothing import ProgressProfile, SpeedProfile
 
 __all__ = ["Progress", "StraightApproach", "JointLine"]
 
@@ -64,6 +64,7 @@ class Progress:
 
     def __init__(self) -> None:
         self._profile: ProgressProfile | None = None
+        self._stopper: SpeedProfile | None = None
         self.L = 0.0
         self.restart()
 
@@ -74,11 +75,22 @@ class Progress:
         self.sdd = sdd
         self.s_prev = 0.0
         self._brake = 0.0
+        self._nominal = 0.0
+        self._jerk = 0.0
         self.blocked = False
         self.room_left = math.inf
         self._periods = 0  # periods advanced since the segment began
         self.end_accel = math.inf  # the acceleration bound at the end of the line, when known
         self.end_speed = 0.0  # the speed at which the progress arrives at L (a target that moves)
+
+    def stopping_progress(self, dt: float) -> float:
+        """The progress this motion needs to come to rest [progress units]: one period at its
+        speed, then the jerk-limited stop the last period planned (its nominal braking, not a
+        late stop's harder one: the distance a stop planned now needs; 0 at rest or before
+        the first period)."""
+        if not (self.sd > 0.0 and self._nominal > 0.0 and self._jerk > 0.0):
+            return 0.0
+        return self.sd * dt + _stop(self.sd, self.sdd, self._nominal, self._jerk)
 
     def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0, lead: float = 0.0) -> float:
         """One period of the progress toward rest at L within ``caps`` (the speed bound
@@ -106,6 +118,10 @@ class Progress:
         vmax = max(caps.free_speed * speed_scale, 1e-12)
         amax = max(caps.accel, 1e-9)
         jmax = max(caps.jerk, 1e-6)
+        block_accel = math.inf
+        if self.blocked:  # the stop ends at the block: within its bounds there (smaller near a singularity)
+            block_accel = caps.room_accel
+            jmax = max(min(jmax, caps.room_jerk), 1e-6)
         # the stop is planned at half the acceleration bound, here or at the end of the line
         # whichever is smaller (the bound can shrink on the way, as J changes: near a
         # singularity by several times); where the stop from the present
@@ -114,23 +130,45 @@ class Progress:
         # of passing the target and coming back. A stop once planned harder keeps its level
         # (planned again at the nominal level, the time-optimal plan would brake later each
         # period and ratchet up to the reserve).
-        nominal = _PLANNED * min(amax, self.end_accel)
+        nominal = _PLANNED * min(amax, self.end_accel, block_accel)
         brake = max(nominal, self._brake) if self.sdd < 0.0 else nominal
         if self.sd > vmax:  # above a speed bound: its braking law assumes the whole bound
             brake = max(brake, amax)
+        # a late stop before a singularity's block (below) that ended its period below rest
+        # goes on to rest the same way
+        overrun = self.blocked and caps.room_by == "singularity" and self.sd < 0.0
         if v_end <= 0.0 and self.sd > 0.0 and _stop_bound(self.sd, self.sdd, brake, jmax) > x \
                 and _stop(self.sd, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
             lo, hi = brake, max(_URGENT * amax, brake)
             if _stop(self.sd, self.sdd, hi, jmax) > x:
                 brake = hi
+                # too late to stop before a singularity's block (its σ_min of the stop, or the
+                # peak of σ_min below it): the stop runs on along the direction, a little
+                # past it (σ_min stays above 0 there), never as a jump to rest, which no
+                # jerk-limited arm follows (its joints would carry on off the direction);
+                # from a state whose jerk-limited stop dips below rest, the speed dips and
+                # comes back (the arm moves back along the direction, never off it)
+                overrun = self.blocked and caps.room_by == "singularity"
             else:
                 for _ in range(12):
                     mid = 0.5 * (lo + hi)
                     lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax) > x else (lo, mid)
                 brake = hi
-        self._brake = brake
-        nxt = prof.step(x, self.sd, self.sdd, vmax=vmax, amax=amax, jmax=jmax, dt=dt, brake=brake,
-                        v_end=v_end)
+        self._brake, self._nominal, self._jerk = brake, nominal, jmax
+        if overrun:
+            stopper = self._stopper
+            if stopper is None:
+                stopper = self._stopper = SpeedProfile(dt)
+            brake = max(brake, abs(self.sdd))
+            vel = stopper.step(self.sd, self.sdd, 0.0, amax=brake, jmax=jmax, dt=dt)
+            if vel is not None and abs(vel[0]) < 1e-12 and abs(vel[1]) < 1e-9:
+                vel = (0.0, 0.0)
+            # (the distance of one period of constant jerk from its two end states)
+            nxt = None if vel is None else (dt * (0.5 * (self.sd + vel[0]) + dt * (self.sdd - vel[1]) / 12.0),
+                                            vel[0], vel[1])
+        else:
+            nxt = prof.step(x, self.sd, self.sdd, vmax=vmax, amax=amax, jmax=jmax, dt=dt, brake=brake,
+                            v_end=v_end)
         if nxt is None:  # no jerk-limited motion found: brake at the acceleration bound
             sd1 = max(self.sd - amax * dt, 0.0)
             dx, sdd1 = 0.5 * (self.sd + sd1) * dt, (sd1 - self.sd) / dt
@@ -143,11 +181,11 @@ class Progress:
                 self.s, self.sd, self.sdd = self.L, min(max(sd1, 0.0), v_end), 0.0
             else:
                 self.s, self.sd, self.sdd = self.L, 0.0, 0.0
-        elif dx >= x and self.blocked:  # at the block: rest there
+        elif dx >= x and self.blocked and not overrun:  # at the block: rest there
             dx = max(x, 0.0)
             self.s, self.sd, self.sdd = self.s + dx, 0.0, 0.0
         else:
-            self.s, self.sd, self.sdd = self.s + dx, max(sd1, 0.0), sdd1
+            self.s, self.sd, self.sdd = self.s + dx, sd1 if overrun else max(sd1, 0.0), sdd1
         return dx / dt
 
 

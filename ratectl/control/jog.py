@@ -14,13 +14,17 @@ moves at once.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..arrays import shared_zeros
 from ..errors import RatectlError, SingularityError
+from ..model.limits import stopping_distance
+from .approach import Progress
 from .cycle import Cycle, Motion, _finite_sum, _same
 from .progress import ProgressCaps
 from .smoothing import SpeedProfile
@@ -46,11 +50,16 @@ class Jog:
         self.twist: np.ndarray | None = None
         self.w_prev: np.ndarray | None = None
         self._profile: SpeedProfile | None = None
+        self._bounds = (0.0, 0.0)  # the last period's bounds on ċ and c̈ (its stop)
+        self._plan = Progress()  # the stop before a singularity's block (smoothed)
+        self._plan.L = math.inf
+        self._block: float | None = None  # where the planned stop ends, in the plan's progress
 
     def start(self, twist: np.ndarray) -> None:
         """A new commanded twist: c continues from the previous motion projected on it."""
         prev = self.twist
-        if prev is not None and self.c > 0.0 and not _same(prev, twist):
+        if prev is not None and self.c != 0.0 and not _same(prev, twist):
+            self._block = None  # (a stop planned along the previous twist)
             nn = float(twist @ twist)
             ratio = float(prev @ twist) / nn if nn > 0.0 else 0.0
             c = self.c * ratio
@@ -61,10 +70,26 @@ class Jog:
             self.w_prev = None
         self.twist = twist.copy()
 
+    @property
+    def stopping(self) -> bool:
+        """A stop planned before a singularity is under way (smoothed)."""
+        return self._block is not None
+
+    def stopping_progress(self, dt: float) -> float:
+        """The progress the jog needs to come to rest [twist·s]: one period at c, then the
+        jerk-limited stop at the last period's bounds on ċ and c̈ (0 at rest or before the
+        first period)."""
+        accel, jerk = self._bounds
+        if not (self.c > 0.0 and accel > 0.0):
+            return 0.0
+        return self.c * dt + float(stopping_distance(self.c, self.cd, accel, jerk if jerk > 0.0 else 1e12,
+                                                     exact_when_braking=True))
+
     def advance(self, caps: ProgressCaps, dt: float) -> float:
         """c for the coming period: toward min(1, the speed bound), changed by at most the
         acceleration bound times dt (an exceeded speed bound is met at once, which the
         braking laws of the bound keep within amax in a fault-free loop)."""
+        self._bounds = (caps.accel, caps.jerk)
         goal = min(1.0, caps.speed)
         step = caps.accel * dt
         c = self.c
@@ -80,6 +105,33 @@ class Jog:
         prof = self._profile
         if prof is None:
             prof = self._profile = SpeedProfile(dt)
+        self._bounds = (caps.accel, caps.jerk)
+        plan = self._plan
+        room = caps.room if caps.room_by == "singularity" else math.inf
+        if self._block is not None and (room == math.inf or caps.room_peak):
+            # a stop planned before, whose block this period's look-ahead no longer sees (a
+            # stopping distance that shrank as the stop went on), or a peak of σ_min seen
+            # again (its estimate from nearer is no earlier): it ends there, at rest
+            room = min(room, self._block - plan.s)
+        # (planned once the singularity's braking speed binds: before that, every bound of
+        # this period, a joint limit's braking speed among them, holds through `caps.speed`)
+        if room < math.inf and ((self.c > 0.0 and caps.binding == "singularity" and caps.speed < 1.0)
+                                or self._block is not None):
+            # a singularity's block ahead: the stop is planned there, as the approach plans
+            # its own (`Progress`, at the block's bounds; late, it runs on a little past it),
+            # and kept until the jog rests (a speed bound that falls faster than a
+            # jerk-limited c can follow, or a stop cut short, would leave the filter's
+            # joints running on while c·w turns with w)
+            self._block = plan.s + max(room, 0.0)
+            plan.sd, plan.sdd = self.c, self.cd
+            plan.advance(replace(caps, free_speed=min(1.0, caps.free_speed), room=max(room, 0.0),
+                                 room_by="singularity"), dt)
+            # (below 0 only for the dip of a late stop, `Progress.advance`)
+            self.c, self.cd = (plan.sd, plan.sdd) if plan.sd != 0.0 else (0.0, 0.0)
+            if self.c == 0.0:
+                self._block = None
+            return self.c
+        self._block = None
         goal = max(min(1.0, caps.speed), 0.0)
         nxt = prof.step(self.c, self.cd, goal, amax=max(caps.accel, 1e-9), jmax=max(caps.jerk, 1e-6), dt=dt)
         if nxt is None:  # no jerk-limited motion found: the unsmoothed rule
@@ -152,7 +204,7 @@ class JogStage:
         w_prime = (w - wp) / (jog.c * dt) if (wp is not None and jog.c > 0.0) else None
         pr = self._progress
         caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(sig_w), w_prime=w_prime,
-                              q_lead=self._m.q_lead,
+                              q_lead=self._m.q_lead, ahead=lambda: jog.stopping_progress(dt),
                               exact=lambda q2, share=True: pr.exact_direction(q2, twist, (q, J), share=share))
         c_prev = jog.c
         c = jog.advance_smoothly(caps, dt) if self._smoothed else jog.advance(caps, dt)
@@ -172,8 +224,17 @@ class JogStage:
             cyc.active = []
             cyc.scale = 1.0
             cyc.smin = None
-        self._progress.flags(cyc, q, caps, c > 0.0, c >= caps.speed * (1.0 - 1e-9) and c < 1.0)
-        if c > c_prev and c < min(1.0, caps.speed) * (1.0 - 1e-12):
+        at_bound = c >= caps.speed * (1.0 - 1e-9) and c < 1.0
+        if jog.stopping:
+            # a stop planned before a singularity goes on to rest (whatever this period's
+            # speed bound says): it is what holds the motion
+            if caps.binding != "singularity":
+                caps.binding = "singularity"
+                caps.reason = ("stopping before a singularity: the commanded direction lowers σ_min "
+                               f"(σ_min = {caps.sigma:.3g}) on its way")
+            at_bound = True
+        self._progress.flags(cyc, q, caps, c != 0.0, at_bound)
+        if c_prev < c < min(1.0, caps.speed) * (1.0 - 1e-12) and c > 0.0:
             cyc.flags.append("acceleration-limited")
             cyc.reasons.append(f"accelerating along the commanded twist within amax ({c:.3g}× the twist)")
             cyc.active.append("acceleration")

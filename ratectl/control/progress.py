@@ -81,6 +81,12 @@ class ProgressCaps:
             plans its stop (the approach) plans it there instead of meeting ``speed``.
         room_by, room_reason: what blocks there ("position" or "singularity") and a sentence
             for the command.
+        room_accel, room_jerk: the bounds on |s̈| and |s⃛| at the block, where a stop planned
+            before it ends (a singularity's: its joint speeds per unit progress are larger
+            there than at q, see `ProgressLimits._singularity`; inf when no block is ahead or
+            the bounds there are those at q).
+        room_peak: the block is the peak of σ_min below ``stop_sigma`` (a motion that rises
+            away from a singularity and would then lower σ_min again).
     """
 
     speed: float
@@ -95,6 +101,9 @@ class ProgressCaps:
     room: float = math.inf
     room_by: str = ""
     room_reason: str = ""
+    room_accel: float = math.inf
+    room_jerk: float = math.inf
+    room_peak: bool = False
 
 
 class ProgressLimits:
@@ -162,7 +171,7 @@ class ProgressLimits:
 
     def caps(self, q: np.ndarray, w: np.ndarray, *, dt: float, sigma: float | None = None,
              w_prime: np.ndarray | None = None, exact=None,
-             q_lead: np.ndarray | None = None) -> ProgressCaps:
+             q_lead: np.ndarray | None = None, ahead=None) -> ProgressCaps:
         """The bounds on ṡ, s̈, s⃛ at ``q`` for motion ``q̇ = ṡ w`` (ṡ ≥ 0).
 
         Args:
@@ -180,6 +189,11 @@ class ProgressLimits:
                 of the direction's exact joint speed |J⁺d|² in the weakest direction (NaN
                 with ``share=False``: σ_min alone), for the singularity look-ahead (None: no
                 singularity bound).
+            ahead: ``f() -> float``, the progress the motion needs to come to rest from its
+                present state [progress units] (0: at rest or unknown), called only near a
+                singularity: σ_min is also evaluated that far ahead, so that a σ_min that
+                falls faster on the way than its slope at q says is stopped for in time
+                (None: not evaluated).
         """
         wl = w.tolist()
         inf = math.inf
@@ -260,8 +274,41 @@ class ProgressLimits:
             caps.room, caps.room_by = p_room, "position"
             caps.room_reason = self._limit_reason(w, p_joint, at=p_room <= 0.0)
         if exact is not None and sigma is not None and sigma < self.watch_sigma:
-            self._singularity(caps, q, w, exact)
+            self._singularity(caps, q, w, exact, w_prime, ahead)
         return caps
+
+    def _room_ahead(self, q, w, w_prime, exact, sigma: float, D: float) -> float:
+        """The room before a singularity's block seen within the progress ``D`` ahead (a
+        little more than the motion needs to come to rest), where the slope of σ_min at q
+        says nothing yet (past a maximum of σ_min, or before it): σ_min at D/2 and D on the
+        joint path's second-order estimate q + w·x + w′·x²/2.
+
+        * Above the stop, a motion may lower σ_min down to it: the room ends where the chord
+          from here crosses the stop (toward a singularity σ_min falls ever faster, its curve
+          is concave, and the chord crosses first).
+        * Below it, a motion rising away from the singularity may not end lower than it is:
+          where σ_min falls between D/2 and D, the motion stops at the peak of the parabola
+          through the three values (a rise that goes on, however it bends, never stops it).
+
+        Returns inf when nothing within D blocks."""
+        def ahead(x: float) -> float:
+            q_x = q + w * x if w_prime is None else q + (w + w_prime * (0.5 * x)) * x
+            return exact(q_x, share=False)[0]
+
+        m = 0.5 * D
+        s_mid, s_far = ahead(m), ahead(D)
+        stop = self.stop_sigma
+        if sigma > stop:
+            if s_mid < stop:
+                return m * (sigma - stop) / (sigma - s_mid)
+            if s_far < stop:
+                return m + m * (s_mid - stop) / (s_mid - s_far)
+            return math.inf
+        if not s_far < s_mid:
+            return math.inf
+        curv = (sigma - 2.0 * s_mid + s_far) / (2.0 * m * m)
+        slope = (s_mid - sigma) / m - curv * m
+        return min(max(-slope / (2.0 * curv), 0.0), D) if curv < 0.0 else 0.0
 
     def _limit_reason(self, w: np.ndarray, i: int, *, at: bool) -> str:
         """The sentence for joint ``i`` moving toward the limit on the side of w_i."""
@@ -269,7 +316,7 @@ class ProgressLimits:
         return (f"joint {self.name(i)} is at its {side} limit" if at
                 else f"joint {self.name(i)} braking toward its {side} limit")
 
-    def _singularity(self, caps: ProgressCaps, q, w, exact) -> None:
+    def _singularity(self, caps: ProgressCaps, q, w, exact, w_prime=None, ahead=None) -> None:
         """The singularity bound (see the module docstring) applied to ``caps``: only for a
         direction that is being lost, most of whose exact joint speed |J⁺d|² goes into the
         weakest direction of J (share above 0.2: as σ_min → 0 it needs joint speeds ∝
@@ -286,20 +333,42 @@ class ProgressLimits:
         ds = 1e-4 / norm  # a 1e-4 rad (or m) joint step along w
         sigma_ahead, _ = exact(q + w * ds, share=False)
         drop = sigma - sigma_ahead
-        if not drop > _SIGMA_NOISE * (1.0 + sigma):
-            return  # moving away from the singularity, or along it (σ_min unchanged): never bounded
-        slope = -drop / ds  # dσ_min/ds
-        room = (sigma - self.stop_sigma) / (-2.0 * slope)
-        reason = (f"stopped before a singularity: σ_min = {sigma:.3g} ≤ {self.stop_sigma:.3g} and the "
-                  "commanded direction lowers it further" if room <= 0.0 else
-                  f"approaching a singularity (σ_min = {sigma:.3g}, stops at {self.stop_sigma:.3g}): "
-                  "slowed along the commanded direction")
+        room = math.inf
+        if drop > _SIGMA_NOISE * (1.0 + sigma):  # (else moving away from it, or along it)
+            room = (sigma - self.stop_sigma) / (2.0 * drop / ds)
+        D = ahead() if ahead is not None and room > 0.0 else 0.0
+        if D > ds:
+            room = min(room, self._room_ahead(q, w, w_prime, exact, sigma, 1.5 * D))
+        if room == math.inf:
+            return  # moving away from the singularity, or along it: never bounded
+        if room <= 0.0:
+            reason = (f"stopped before a singularity: σ_min = {sigma:.3g} ≤ {self.stop_sigma:.3g} and the "
+                      "commanded direction lowers it further")
+        elif sigma > self.stop_sigma:
+            reason = (f"approaching a singularity (σ_min = {sigma:.3g}, stops at {self.stop_sigma:.3g}): "
+                      "slowed along the commanded direction")
+        else:
+            reason = (f"approaching a singularity (σ_min = {sigma:.3g} ≤ {self.stop_sigma:.3g}): the "
+                      "commanded direction rises away from it, then lowers σ_min again: slowed to stop "
+                      "at its peak")
+        # at the block the joint speed per unit progress is larger: the share of |w|² in the
+        # weakest direction grows like 1/σ_min² (the rest stays), so |w| grows by
+        # ρ = √((1 − share) + share·(σ_min/stop)²) and the bounds on s̈ and s⃛ shrink by 1/ρ
+        # there; a stop planned at the bounds at q would ask the joints for up to ρ× their
+        # share of amax and jmax as it ends (a smoothed command cannot follow: the tool
+        # leaves its line)
+        ratio = max(sigma / self.stop_sigma, 1.0)
+        rho = math.sqrt(max(1.0 - share, 0.0) + share * ratio * ratio)
+        accel_block, jerk_block = caps.accel / rho, caps.jerk / rho
         if max(room, 0.0) < caps.room:  # the room ahead (an approach plans its stop there)
             # (said of the block itself: whether the arm still moves is the status's to say)
             caps.room, caps.room_by = max(room, 0.0), "singularity"
+            caps.room_accel, caps.room_jerk = accel_block, jerk_block
+            caps.room_peak = 0.0 < room and sigma <= self.stop_sigma
             caps.room_reason = (f"a singularity whose lost direction the line heads into (σ_min = "
                                 f"{sigma:.3g}; the motion stops at {self.stop_sigma:.3g})")
-        # the speed bound (a jog): the jerk-limited stop within that room at the acceleration bound
+        # the speed bound (a jog): the jerk-limited stop within that room at the acceleration
+        # bound (a stop then planned, `Progress`, plans it at the block's bounds)
         bound = float(braking_speed(room, caps.accel, min(caps.jerk, _JERK_BIG))) if room > 0.0 else 0.0
         if bound < caps.speed:
             caps.speed, caps.binding, caps.joint, caps.reason = bound, "singularity", -1, reason

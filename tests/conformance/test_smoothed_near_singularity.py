@@ -1,6 +1,6 @@
-"""Smoothing near a singularity: cases a new user's trial found, which the smoothed servo and
-jog do not meet yet (strict xfails: each passes once the defect is fixed). Without
-smoothing the same runs stay on the line (0.02 mm) and move only along the twist (0.17 mm)."""
+"""Smoothing near a singularity: cases a new user's trial found (63 mm off the line and 164 mm
+across the twist before the stops were planned with a look-ahead). Without smoothing the
+same runs stay on the line (0.02 mm) and move only along the twist (0.17 mm)."""
 
 import numpy as np
 import pytest
@@ -10,9 +10,6 @@ import ratectl as rc
 from . import servo_arms
 
 
-@pytest.mark.xfail(strict=True, reason="a smoothed stop before a boundary singularity at 190 mm/s "
-                   "overshoots stop_sigma (the filter's own stopping distance is not planned): 63 mm "
-                   "off the line while reporting halted-singularity")
 def test_a_smoothed_servo_stops_on_its_line_before_a_boundary_singularity():
     """PUMA 560, σ_min 0.052, a 235 mm step whose line heads into the boundary singularity,
     smoothed, dt 4 ms: the line is blocked and the arm must stop on it (1 mm + 0.5 %)."""
@@ -34,14 +31,19 @@ def test_a_smoothed_servo_stops_on_its_line_before_a_boundary_singularity():
         D = arm.fk(q)[:3, 3] - p0
         off = max(off, float(np.linalg.norm(D - np.clip(D @ u, 0.0, L) * u)))
     assert off <= 1e-3 + 0.005 * L, f"{off * 1e3:.1f} mm off the line ({cmd.status})"
+    # stopped before the singularity, where σ_min reaches stop_sigma, and said so
+    sigma = float(np.linalg.svd(arm.jacobian(q), compute_uv=False)[-1])
+    assert sigma >= 0.95 * ctrl.stop_sigma, (sigma, ctrl.stop_sigma)
+    assert cmd.status == "target-unreachable" and "singularity" in cmd.reason, (cmd.status, cmd.reason)
 
 
-@pytest.mark.xfail(strict=True, reason="a smoothed jog reversed out of a wrist-singularity stop "
-                   "slides: the filter's joints keep accelerating while the twist's fraction is ~0")
 def test_a_smoothed_jog_reversed_out_of_a_wrist_singularity_stop_never_slides():
     """example-robot-data's UR10 at σ_min 8.7e-4 near its wrist singularity, a twist held 2.53 s
     (the jog halts before the singularity), then reversed for 2 s, smoothed, dt 4 ms: the
-    tool's motion across the twist stays within 2 mm in total (164 mm measured)."""
+    reversed twist rises away from the singularity to a peak of σ_min (still below
+    ``stop_sigma``) and must stop there. The tool's motion across the twist stays within
+    2 mm in total, its motion back against the twist within 2 mm, and it moves away at 50 %
+    of the twist's speed within 0.5 s."""
     if servo_arms.robots_dir() is None:
         pytest.skip("example-robot-data is not installed")
     arm = servo_arms.urdf_arm("ur10")
@@ -53,12 +55,23 @@ def test_a_smoothed_jog_reversed_out_of_a_wrist_singularity_stop_never_slides():
     ctrl = rc.ResolvedRateController(arm, smoothing=True)
     hold = int(round(2.5346 / dt))
     p = arm.fk(q)[:3, 3]
-    across = 0.0
+    across = back = 0.0
+    away_at = None
+    speed = float(np.linalg.norm(xi[:3]))
     for k in range(hold + int(2.0 / dt)):
         x = xi if k < hold else -xi
-        q = ctrl.step(q, twist=x, dt=dt).q_next
+        cmd = ctrl.step(q, twist=x, dt=dt)
+        q = cmd.q_next
         p_next = arm.fk(q)[:3, 3]
         dp = p_next - p
-        across += float(np.linalg.norm(dp - (dp @ x[:3]) / (x[:3] @ x[:3]) * x[:3]))
+        u = x[:3] / speed
+        along = float(dp @ u)
+        across += float(np.linalg.norm(dp - along * u))
+        back += max(-along, 0.0)
+        if k >= hold and away_at is None and along / dt >= 0.5 * speed:
+            away_at = (k + 1 - hold) * dt
         p = p_next
     assert across <= 2e-3, f"{across * 1e3:.1f} mm across the twist"
+    assert back <= 2e-3, f"{back * 1e3:.1f} mm back against the twist"
+    assert away_at is not None and away_at <= 0.5, f"moved away at half the twist's speed after {away_at} s"
+    assert cmd.status == "halted-singularity", cmd.status
