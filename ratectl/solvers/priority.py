@@ -55,6 +55,9 @@ from .qp.bounds import _BIG, _BoundCache, _box, _vec
 
 _dposv = _lapack.dposv
 _dgesdd = _lapack.dgesdd
+_dgeqrf = _lapack.dgeqrf
+_dorgqr = _lapack.dorgqr
+_dtrtri = _lapack.dtrtri
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -335,7 +338,6 @@ class PriorityCascade:
         parts: list[tuple | None] = []
         freedom = [0] * nlev
         x = x0
-        start_zero = x_zero
         for k, (A, b, sw) in enumerate(lv):
             r = n if Z is None else Z.shape[1]
             freedom[k] = r
@@ -343,7 +345,7 @@ class PriorityCascade:
                 parts.append(None)
                 continue
             Mw = A if sw is None else sw[:, None] * A
-            if r == 1 and Z is not None and not start_zero:
+            if r == 1 and Z is not None:
                 # one free direction v: the level's minimiser along it on floats
                 v = Z[:, 0]
                 mv = Mw @ v
@@ -367,12 +369,12 @@ class PriorityCascade:
                     H += self._lam2_eye(r)
                 V = _null_space(M, self.tolerance) if k + 1 < nlev else None
                 parts.append((Z, M, H, V))
-                if start_zero and Z is None and sw is None:  # (the first level from q̇ = 0: g = Mᵀb)
-                    x = _spd_solve(H, M.T @ b)
+                if Z is None:
+                    # the first level, every direction free: its minimiser H⁻¹Mᵀ W^{1/2} b
+                    # whatever the start (x + H⁻¹(Mᵀ W^{1/2}(b − A x) − λ²x) is that point)
+                    x = _spd_solve(H, M.T @ (b if sw is None else b * sw))
                 else:
-                    z = _spd_solve(H, self._gradient(A, b, sw, M, Z, x, start_zero, lam2))
-                    x = x + (z if Z is None else Z @ z)
-            start_zero = False
+                    x = x + Z @ _spd_solve(H, self._gradient(A, b, sw, M, Z, x, False, lam2))
             if V is not None:
                 if V is _NONE_OF_ONE:  # (Z @ V without the product: no direction left)
                     Z = _no_columns(n)
@@ -689,19 +691,61 @@ _SEG_EPS = 1e-12  # a direction this small along a bound counts as parallel to i
 
 def _null_space(M: np.ndarray, tolerance: float) -> np.ndarray:
     """An orthonormal basis (r, r − rank) of the null space of M (m, r): the right singular
-    vectors whose singular values are below ``tolerance · max(1, σ_max)``."""
-    r = M.shape[1]
-    if M.shape[0] == 0:
+    vectors whose singular values are below ``tolerance · max(1, σ_max)``.
+
+    Where M has full rank with room to spare (the common case), a QR factorisation answers
+    at a fraction of an SVD's cost (`_null_space_qr`); the SVD decides the rank otherwise."""
+    m, r = M.shape
+    if m == 0:
         return np.eye(r)
     if r == 1:  # one column: its norm is its one singular value
         s1 = math.sqrt(float(M[:, 0].dot(M[:, 0])))
         return np.ones((1, 0 if s1 > tolerance * max(1.0, s1) else 1))
+    Z = _null_space_qr(M, tolerance)
+    if Z is not None:
+        return Z
     _, s, vt, info = _dgesdd(M, compute_uv=1, full_matrices=1)
     if info != 0:  # pragma: no cover - LAPACK's own failure: numpy's SVD (raises LinAlgError)
         _, s, vt = np.linalg.svd(M, full_matrices=True)
     tol = tolerance * max(1.0, float(s[0]) if s.size else 0.0)
     rank = int(np.count_nonzero(s > tol))
     return vt[rank:].T
+
+
+def _null_space_qr(M: np.ndarray, tolerance: float) -> np.ndarray | None:
+    """`_null_space` of an M (m, r) of full rank min(m, r), from one QR factorisation
+    (LAPACK ``dgeqrf``): of Mᵀ = Q R when m < r — the null space is then spanned by the
+    last r − m columns of the full Q (``dorgqr``) — and of M = Q R when m ≥ r (no null
+    space). None when the rank is not certain: the singular values of M are those of the
+    triangle R (p × p, p = min(m, r)), and
+
+        σ_min ≥ 1/‖R⁻¹‖_F,        σ_max ≤ ‖R‖_F,
+
+    so ``‖R⁻¹‖_F · tolerance · max(1, ‖R‖_F) < 1`` proves every singular value above the
+    SVD's threshold ``tolerance · max(1, σ_max)``: both answers then span the same space.
+    (The norms are taken over the whole p × p block that holds R, whose part below the
+    diagonal holds the Householder vectors: they only enlarge both norms, so the test
+    stays a proof.)"""
+    m, r = M.shape
+    wide = m < r
+    qr, tau, _, info = _dgeqrf(M.T if wide else M)
+    p = m if wide else r
+    Rb = qr[:p]
+    inv, info2 = _dtrtri(Rb)
+    if info != 0 or info2 != 0:
+        return None
+    f_inv = float(np.vdot(inv, inv))
+    f_r = float(np.vdot(Rb, Rb))
+    if not tolerance * tolerance * f_inv * max(1.0, f_r) < 1.0:  # (NaN: not proved either)
+        return None
+    if not wide:
+        return _no_columns(r)
+    a = np.empty((r, r), order="F")
+    a[:, :m] = qr
+    q, _, info3 = _dorgqr(a, tau, overwrite_a=1)
+    if info3 != 0:  # pragma: no cover - LAPACK's argument check
+        return None
+    return q[:, m:]
 
 
 def _owned_result(qd, residuals, qps, freedom, lo, hi, box_active, rows_active, relaxed,

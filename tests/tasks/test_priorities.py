@@ -240,3 +240,24 @@ def test_the_cascade_reaches_the_textbook_cascade_residuals(seed, rows, off0, of
         best = _best_residual(A, b, lo, hi, G, h, [L[0] for L in levels[:k]], got.qd)
         assume(best is not None)
         assert got.residuals[k] <= best + 1e-6 * (1.0 + best)
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 8), st.integers(2, 8), st.integers(0, 8),
+       st.sampled_from([1e-12, 1e-6, 1.0, 1e6]))
+def test_the_null_space_spans_the_singular_vectors_the_svd_leaves(seed, m, r, rank, scale):
+    # the QR shortcut and the SVD must give the same space (any orthonormal basis of it):
+    # full-rank rows and columns, rank-deficient products, tiny and huge scales
+    from ratectl.solvers.priority import _null_space
+
+    rng = np.random.default_rng(seed)
+    rank = min(rank, m, r)
+    M = scale * (rng.normal(size=(m, rank)) @ rng.normal(size=(rank, r)))
+    tol = 1e-9
+    Z = _null_space(M, tol)
+    _, s, vt = np.linalg.svd(M)
+    keep = int(np.sum(s > tol * max(1.0, s[0] if s.size else 0.0)))
+    N = vt[keep:].T
+    assert Z.shape == N.shape
+    np.testing.assert_allclose(Z.T @ Z, np.eye(Z.shape[1]), atol=1e-12)
+    np.testing.assert_allclose(Z @ Z.T, N @ N.T, atol=1e-9)
