@@ -325,10 +325,6 @@ class PriorityCascade:
         ``dposv``); the null space for the next level from one SVD of M (``dgesdd``),
         skipped after the last level. Neither depends on q̇, so the second pass reuses them."""
         lo_f, hi_f = lo.tolist(), hi.tolist()
-        # the box holds q̇ = 0 (within the 1e-12 of its test: the largest lo_i − 1e-12 is
-        # max(lo) − 1e-12, rounding being monotone)
-        x_zero = max(lo_f) - 1e-12 <= -1e-12 and min(hi_f) + 1e-12 >= 1e-12
-        x0 = np.zeros(n) if x_zero else np.minimum(np.maximum(lo, 0.0), hi)
         lam2 = self.damping**2
         nlev = len(lv)
         have_rows = h.size > 0
@@ -337,7 +333,7 @@ class PriorityCascade:
         Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
         parts: list[tuple | None] = []
         freedom = [0] * nlev
-        x = x0
+        x = _NO_H  # (no joints; otherwise the first level, with every direction, sets it)
         for k, (A, b, sw) in enumerate(lv):
             r = n if Z is None else Z.shape[1]
             freedom[k] = r
@@ -398,9 +394,11 @@ class PriorityCascade:
             if lo_l is None:
                 lo_l = [v - 1e-12 for v in lo_f]
                 hi_l = [v + 1e-12 for v in hi_f]
-            # pass 2: each level's answer within the box and the rows
-            x = x0
-            start_zero = x_zero
+            # pass 2: each level's answer within the box and the rows, from the point of
+            # the box nearest q̇ = 0; whether the box holds q̇ = 0 (within the 1e-12 of its
+            # test: the largest lo_i − 1e-12 is max(lo) − 1e-12, rounding being monotone)
+            start_zero = max(lo_f) - 1e-12 <= -1e-12 and min(hi_f) + 1e-12 >= 1e-12
+            x = np.zeros(n) if start_zero else np.minimum(np.maximum(lo, 0.0), hi)
             for k, (A, b, sw) in enumerate(lv):
                 part = parts[k]
                 if part is None:
