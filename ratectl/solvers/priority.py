@@ -377,9 +377,12 @@ class PriorityCascade:
                 elif V is not _ONE_OF_ONE:  # (the one direction stays)
                     Z = V if Z is None else Z @ V
         cl = x.tolist()
-        # within the box: strictly (then the clip below changes nothing), else within the
-        # 1e-12 of the test
-        inside = not (any(map(_lt, cl, lo_f)) or any(map(_gt, cl, hi_f)))
+        # farther than the activity tolerance from every face of the box (the common case:
+        # then strictly inside, and no joint on a face), else within the box: strictly
+        # (then the clip below changes nothing), else within the 1e-12 of the test
+        act_tol = _ACT_TOL * max(max(map(abs, hi_f)) + max(map(abs, lo_f)), 1.0)
+        far = min(map(_sub, hi_f, cl)) > act_tol and min(map(_sub, cl, lo_f)) > act_tol
+        inside = far or not (any(map(_lt, cl, lo_f)) or any(map(_gt, cl, hi_f)))
         lo_l = hi_l = None
         ok = inside
         if not inside:
@@ -414,16 +417,17 @@ class PriorityCascade:
             xl = list(map(min, map(max, x.tolist(), lo_f), hi_f))
             x = np.array(xl)
         res = _residuals(lv, x) if stacked is None else _stacked_residuals(stacked, x)
-        box_active = self._box_active(xl, lo_f, hi_f)
+        # (the first pass's answer, far from every face: no joint on one)
+        box_active = shared_zeros(n, dtype=bool) if ok and far else self._box_active(xl, lo_f, hi_f, act_tol)
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
         return _owned_result(x, res, self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
                              box_active, rows_active, relaxed, self.backend)
 
-    def _box_active(self, xl: list[float], lo_f: list[float], hi_f: list[float]) -> np.ndarray:
+    def _box_active(self, xl: list[float], lo_f: list[float], hi_f: list[float], tol: float) -> np.ndarray:
         """The joints within ``_ACT_TOL · max(|hi| + |lo|, 1)`` of a face of the box (read-only
-        bool (n,)): none when every joint is farther than the largest of these tolerances from
-        both faces (two passes on floats), else joint by joint."""
-        tol = _ACT_TOL * max(max(map(abs, hi_f)) + max(map(abs, lo_f)), 1.0)
+        bool (n,)): none when every joint is farther than the largest of these tolerances
+        (``tol``, `_ACT_TOL` · max(max|hi| + max|lo|, 1)) from both faces (two passes on
+        floats), else joint by joint."""
         if min(map(_sub, hi_f, xl)) > tol and min(map(_sub, xl, lo_f)) > tol:
             return shared_zeros(len(xl), dtype=bool)
         return self._frozen([min(u - v, v - w) <= _ACT_TOL * max(abs(u) + abs(w), 1.0)
@@ -720,26 +724,29 @@ def _null_space_qr(M: np.ndarray, tolerance: float) -> np.ndarray | None:
         σ_min ≥ 1/‖R⁻¹‖_F,        σ_max ≤ ‖R‖_F,
 
     so ``‖R⁻¹‖_F · tolerance · max(1, ‖R‖_F) < 1`` proves every singular value above the
-    SVD's threshold ``tolerance · max(1, σ_max)``: both answers then span the same space.
-    (The norms are taken over the whole p × p block that holds R, whose part below the
-    diagonal holds the Householder vectors: they only enlarge both norms, so the test
-    stays a proof.)"""
+    SVD's threshold ``tolerance · max(1, σ_max)``: both answers then span the same space
+    (‖R‖_F = ‖M‖_F; ‖R⁻¹‖_F is bounded by the norm of the whole p × p block that holds
+    R⁻¹, whose part below the diagonal keeps the Householder vectors: they only enlarge
+    it, so the test stays a proof)."""
     m, r = M.shape
     wide = m < r
-    qr, tau, _, info = _dgeqrf(M.T if wide else M)
-    p = m if wide else r
-    Rb = qr[:p]
-    inv, info2 = _dtrtri(Rb)
+    if wide:  # Mᵀ in the first m columns of the r × r array dorgqr will fill with Q (in place)
+        a = np.empty((r, r), order="F")
+        a[:, :m] = M.T
+        qr, tau, _, info = _dgeqrf(a[:, :m], overwrite_a=1)
+        p = m
+    else:
+        qr, tau, _, info = _dgeqrf(M)
+        p = r
+    inv, info2 = _dtrtri(qr[:p, :p])
     if info != 0 or info2 != 0:
         return None
-    f_inv = float(np.vdot(inv, inv))
-    f_r = float(np.vdot(Rb, Rb))
-    if not tolerance * tolerance * f_inv * max(1.0, f_r) < 1.0:  # (NaN: not proved either)
-        return None
+    f_inv = inv.ravel("K")
+    f_r = M.ravel("K")  # (‖R‖_F = ‖M‖_F: Q is orthogonal)
+    if not tolerance * tolerance * float(f_inv.dot(f_inv)) * max(1.0, float(f_r.dot(f_r))) < 1.0:
+        return None  # (NaN: not proved either)
     if not wide:
         return _no_columns(r)
-    a = np.empty((r, r), order="F")
-    a[:, :m] = qr
     q, _, info3 = _dorgqr(a, tau, overwrite_a=1)
     if info3 != 0:  # pragma: no cover - LAPACK's argument check
         return None
