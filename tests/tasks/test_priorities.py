@@ -261,3 +261,28 @@ def test_the_null_space_spans_the_singular_vectors_the_svd_leaves(seed, m, r, ra
     assert Z.shape == N.shape
     np.testing.assert_allclose(Z.T @ Z, np.eye(Z.shape[1]), atol=1e-12)
     np.testing.assert_allclose(Z @ Z.T, N @ N.T, atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 9))
+def test_a_weighted_first_level_in_a_box_without_zero_is_its_damped_least_squares(seed, m):
+    # the first level's minimiser does not depend on where the cascade starts (the box's
+    # point nearest q̇ = 0): a box around the answer that excludes q̇ = 0 changes nothing
+    rng = np.random.default_rng(seed)
+    n = 7
+    A, b, w = rng.normal(size=(m, n)), rng.normal(size=m), rng.uniform(0.1, 10.0, size=m)
+    lam = 1e-3
+    sw = np.sqrt(w)
+    # min ‖W^{1/2}(A x − b)‖² + λ²‖x‖², independently: the stacked least-squares problem
+    expected = np.linalg.lstsq(np.vstack([sw[:, None] * A, lam * np.eye(n)]),
+                               np.concatenate([sw * b, np.zeros(n)]), rcond=None)[0]
+    lo = expected - rng.uniform(0.1, 1.0, size=n)
+    hi = expected + rng.uniform(0.1, 1.0, size=n)
+    j = int(np.argmax(np.abs(expected)))  # this joint's interval holds its answer, not 0
+    lo[j], hi[j] = expected[j] - 0.5 * abs(expected[j]), expected[j] + 0.5 * abs(expected[j])
+    assume(abs(expected[j]) > 1e-6)
+    c = PriorityCascade(damping=lam)
+    c.box = lambda n_, *a: (lo.copy(), hi.copy())
+    got = c.solve([(A, b, w)], limits=_Box(n, 1e6))
+    np.testing.assert_allclose(got.qd, expected, rtol=1e-7, atol=1e-7)  # (H's κ reaches 1e7)
+    assert not got.qps.any()
