@@ -643,9 +643,19 @@ def _residuals(levels, x: np.ndarray) -> np.ndarray:
 
 def _stacked_residuals(stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]], x: np.ndarray) -> np.ndarray:
     """`_residuals` of unweighted levels stacked in one array (see `solve_validated`):
-    ``A_all x − b_all`` once, then each level's norm on its rows."""
+    ``d = A_all x − b_all`` once, then each level's ‖d‖ over its rows (one reduction over
+    the levels' row blocks when none is empty)."""
     A, b, ends = stacked
     d = A @ x - b
+    starts = _STARTS.get(ends)
+    if starts is None:
+        if len(_STARTS) > 64:
+            _STARTS.clear()
+        firsts = (0, *ends[:-1])
+        starts = _STARTS[ends] = (np.array(firsts, dtype=np.intp)
+                                  if all(i < j for i, j in zip(firsts, ends, strict=True)) else False)
+    if starts is not False:
+        return np.sqrt(np.add.reduceat(d * d, starts))
     out = []
     i = 0
     for j in ends:
@@ -653,6 +663,10 @@ def _stacked_residuals(stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]], 
         out.append(math.sqrt(di.dot(di)))
         i = j
     return np.array(out)
+
+
+#: each ``ends`` of `_stacked_residuals`: its levels' first rows, or False when a level is empty
+_STARTS: dict[tuple[int, ...], Any] = {}
 
 
 def _spd_solve(H: np.ndarray, g: np.ndarray) -> np.ndarray:

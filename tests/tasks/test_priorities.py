@@ -286,3 +286,25 @@ def test_a_weighted_first_level_in_a_box_without_zero_is_its_damped_least_square
     got = c.solve([(A, b, w)], limits=_Box(n, 1e6))
     np.testing.assert_allclose(got.qd, expected, rtol=1e-7, atol=1e-7)  # (H's κ reaches 1e7)
     assert not got.qps.any()
+
+
+@pytest.mark.parametrize("empty", [0, 1, 2])
+def test_each_levels_residual_is_reported_with_an_empty_level_anywhere(empty):
+    # three levels in one stacked layout, one of them without rows (a posture on no joints)
+    ch = rc.robots.panda()
+    q = 0.5 * (ch.qlim[:, 0] + ch.qlim[:, 1]) + 0.1
+    link = ch.link_names[3]
+    tasks = [rc.tasks.Pose(priority=0, target=ch.fk(q + 0.05)),
+             rc.tasks.Position(link=link, priority=1, target=ch.fk(q, link=link)[:3, 3] + 0.02),
+             rc.tasks.Posture(q + 0.2, priority=2, gain=1.0)]
+    tasks[empty] = rc.tasks.Posture(q, joints=[], priority=empty)
+    ctrl = rc.ResolvedRateController(ch, tasks=tasks)
+    cmd = ctrl.step(q, dt=1e-3)
+    assert cmd.status != "halted", cmd.reason
+    expected = []
+    for t in tasks:
+        r = t.rows(ch, q)
+        d = r.A @ cmd.solve.qd - r.b
+        expected.append(np.linalg.norm(d))
+    np.testing.assert_allclose(cmd.solve.residuals, expected, rtol=1e-12, atol=1e-12)
+    assert cmd.solve.residuals[empty] == 0.0
