@@ -15,8 +15,9 @@ never changes what a higher level achieves within the limits. They are imposed b
 parametrisation, not as rows: ``q̇ = x_k + Z_k z`` with ``x_k`` the answer so far and ``Z_k``
 an orthonormal basis of the null space of the stacked higher levels' weighted rows
 (singular values below ``tolerance``·max(1, σ_max) count as zero — the tolerance of the
-equality), so each level is a QP in ``dim Z_k`` unknowns and a redundant higher row never
-makes the constraints degenerate. The cascade stops when no freedom is left.
+equality; a QR factorisation gives the basis where it proves the rank, an SVD otherwise),
+so each level is a QP in ``dim Z_k`` unknowns and a redundant higher row never makes the
+constraints degenerate. The cascade stops when no freedom is left.
 
 Each level first tries the unconstrained minimiser (the null-space projection
 ``z = −H⁻¹f``): when it satisfies the box and the rows no QP is solved (that is
@@ -322,8 +323,9 @@ class PriorityCascade:
         no inequality is active at any level. Otherwise the levels again, each one's answer
         tested against the box and the rows (`_solve_level`). Per level: ``H = MᵀM + λ²I`` (M
         the weighted rows in the free directions) solved by one Cholesky (LAPACK
-        ``dposv``); the null space for the next level from one SVD of M (``dgesdd``),
-        skipped after the last level. Neither depends on q̇, so the second pass reuses them."""
+        ``dposv``); the null space for the next level from one QR factorisation of M
+        (`_null_space`: an SVD where the QR does not prove the rank), skipped after the
+        last level. Neither depends on q̇, so the second pass reuses them."""
         lo_f, hi_f = lo.tolist(), hi.tolist()
         lam2 = self.damping**2
         nlev = len(lv)
