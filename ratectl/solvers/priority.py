@@ -15,8 +15,9 @@ never changes what a higher level achieves within the limits. They are imposed b
 parametrisation, not as rows: ``q̇ = x_k + Z_k z`` with ``x_k`` the answer so far and ``Z_k``
 an orthonormal basis of the null space of the stacked higher levels' weighted rows
 (singular values below ``tolerance``·max(1, σ_max) count as zero — the tolerance of the
-equality), so each level is a QP in ``dim Z_k`` unknowns and a redundant higher row never
-makes the constraints degenerate. The cascade stops when no freedom is left.
+equality; a QR factorisation gives the basis where it proves the rank, an SVD otherwise),
+so each level is a QP in ``dim Z_k`` unknowns and a redundant higher row never makes the
+constraints degenerate. The cascade stops when no freedom is left.
 
 Each level first tries the unconstrained minimiser (the null-space projection
 ``z = −H⁻¹f``): when it satisfies the box and the rows no QP is solved (that is
@@ -55,6 +56,9 @@ from .qp.bounds import _BIG, _BoundCache, _box, _vec
 
 _dposv = _lapack.dposv
 _dgesdd = _lapack.dgesdd
+_dgeqrf = _lapack.dgeqrf
+_dorgqr = _lapack.dorgqr
+_dtrtri = _lapack.dtrtri
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -319,13 +323,10 @@ class PriorityCascade:
         no inequality is active at any level. Otherwise the levels again, each one's answer
         tested against the box and the rows (`_solve_level`). Per level: ``H = MᵀM + λ²I`` (M
         the weighted rows in the free directions) solved by one Cholesky (LAPACK
-        ``dposv``); the null space for the next level from one SVD of M (``dgesdd``),
-        skipped after the last level. Neither depends on q̇, so the second pass reuses them."""
+        ``dposv``); the null space for the next level from one QR factorisation of M
+        (`_null_space`: an SVD where the QR does not prove the rank), skipped after the
+        last level. Neither depends on q̇, so the second pass reuses them."""
         lo_f, hi_f = lo.tolist(), hi.tolist()
-        # the box holds q̇ = 0 (within the 1e-12 of its test: the largest lo_i − 1e-12 is
-        # max(lo) − 1e-12, rounding being monotone)
-        x_zero = max(lo_f) - 1e-12 <= -1e-12 and min(hi_f) + 1e-12 >= 1e-12
-        x0 = np.zeros(n) if x_zero else np.minimum(np.maximum(lo, 0.0), hi)
         lam2 = self.damping**2
         nlev = len(lv)
         have_rows = h.size > 0
@@ -334,8 +335,7 @@ class PriorityCascade:
         Z: np.ndarray | None = None  # None: the identity (level 0 uses every direction)
         parts: list[tuple | None] = []
         freedom = [0] * nlev
-        x = x0
-        start_zero = x_zero
+        x = _NO_H  # (no joints; otherwise the first level, with every direction, sets it)
         for k, (A, b, sw) in enumerate(lv):
             r = n if Z is None else Z.shape[1]
             freedom[k] = r
@@ -343,7 +343,7 @@ class PriorityCascade:
                 parts.append(None)
                 continue
             Mw = A if sw is None else sw[:, None] * A
-            if r == 1 and Z is not None and not start_zero:
+            if r == 1 and Z is not None:
                 # one free direction v: the level's minimiser along it on floats
                 v = Z[:, 0]
                 mv = Mw @ v
@@ -367,21 +367,24 @@ class PriorityCascade:
                     H += self._lam2_eye(r)
                 V = _null_space(M, self.tolerance) if k + 1 < nlev else None
                 parts.append((Z, M, H, V))
-                if start_zero and Z is None and sw is None:  # (the first level from q̇ = 0: g = Mᵀb)
-                    x = _spd_solve(H, M.T @ b)
+                if Z is None:
+                    # the first level, every direction free: its minimiser H⁻¹Mᵀ W^{1/2} b
+                    # whatever the start (x + H⁻¹(Mᵀ W^{1/2}(b − A x) − λ²x) is that point)
+                    x = _spd_solve(H, M.T @ (b if sw is None else b * sw))
                 else:
-                    z = _spd_solve(H, self._gradient(A, b, sw, M, Z, x, start_zero, lam2))
-                    x = x + (z if Z is None else Z @ z)
-            start_zero = False
+                    x = x + Z @ _spd_solve(H, self._gradient(A, b, sw, M, Z, x, False, lam2))
             if V is not None:
                 if V is _NONE_OF_ONE:  # (Z @ V without the product: no direction left)
                     Z = _no_columns(n)
                 elif V is not _ONE_OF_ONE:  # (the one direction stays)
                     Z = V if Z is None else Z @ V
         cl = x.tolist()
-        # within the box: strictly (then the clip below changes nothing), else within the
-        # 1e-12 of the test
-        inside = not (any(map(_lt, cl, lo_f)) or any(map(_gt, cl, hi_f)))
+        # farther than the activity tolerance from every face of the box (the common case:
+        # then strictly inside, and no joint on a face), else within the box: strictly
+        # (then the clip below changes nothing), else within the 1e-12 of the test
+        act_tol = _ACT_TOL * max(max(map(abs, hi_f)) + max(map(abs, lo_f)), 1.0)
+        far = min(map(_sub, hi_f, cl)) > act_tol and min(map(_sub, cl, lo_f)) > act_tol
+        inside = far or not (any(map(_lt, cl, lo_f)) or any(map(_gt, cl, hi_f)))
         lo_l = hi_l = None
         ok = inside
         if not inside:
@@ -396,9 +399,11 @@ class PriorityCascade:
             if lo_l is None:
                 lo_l = [v - 1e-12 for v in lo_f]
                 hi_l = [v + 1e-12 for v in hi_f]
-            # pass 2: each level's answer within the box and the rows
-            x = x0
-            start_zero = x_zero
+            # pass 2: each level's answer within the box and the rows, from the point of
+            # the box nearest q̇ = 0; whether the box holds q̇ = 0 (within the 1e-12 of its
+            # test: the largest lo_i − 1e-12 is max(lo) − 1e-12, rounding being monotone)
+            start_zero = max(lo_f) - 1e-12 <= -1e-12 and min(hi_f) + 1e-12 >= 1e-12
+            x = np.zeros(n) if start_zero else np.minimum(np.maximum(lo, 0.0), hi)
             for k, (A, b, sw) in enumerate(lv):
                 part = parts[k]
                 if part is None:
@@ -414,16 +419,17 @@ class PriorityCascade:
             xl = list(map(min, map(max, x.tolist(), lo_f), hi_f))
             x = np.array(xl)
         res = _residuals(lv, x) if stacked is None else _stacked_residuals(stacked, x)
-        box_active = self._box_active(xl, lo_f, hi_f)
+        # (the first pass's answer, far from every face: no joint on one)
+        box_active = shared_zeros(n, dtype=bool) if ok and far else self._box_active(xl, lo_f, hi_f, act_tol)
         rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
         return _owned_result(x, res, self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
                              box_active, rows_active, relaxed, self.backend)
 
-    def _box_active(self, xl: list[float], lo_f: list[float], hi_f: list[float]) -> np.ndarray:
+    def _box_active(self, xl: list[float], lo_f: list[float], hi_f: list[float], tol: float) -> np.ndarray:
         """The joints within ``_ACT_TOL · max(|hi| + |lo|, 1)`` of a face of the box (read-only
-        bool (n,)): none when every joint is farther than the largest of these tolerances from
-        both faces (two passes on floats), else joint by joint."""
-        tol = _ACT_TOL * max(max(map(abs, hi_f)) + max(map(abs, lo_f)), 1.0)
+        bool (n,)): none when every joint is farther than the largest of these tolerances
+        (``tol``, `_ACT_TOL` · max(max|hi| + max|lo|, 1)) from both faces (two passes on
+        floats), else joint by joint."""
         if min(map(_sub, hi_f, xl)) > tol and min(map(_sub, xl, lo_f)) > tol:
             return shared_zeros(len(xl), dtype=bool)
         return self._frozen([min(u - v, v - w) <= _ACT_TOL * max(abs(u) + abs(w), 1.0)
@@ -639,9 +645,19 @@ def _residuals(levels, x: np.ndarray) -> np.ndarray:
 
 def _stacked_residuals(stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]], x: np.ndarray) -> np.ndarray:
     """`_residuals` of unweighted levels stacked in one array (see `solve_validated`):
-    ``A_all x − b_all`` once, then each level's norm on its rows."""
+    ``d = A_all x − b_all`` once, then each level's ‖d‖ over its rows (one reduction over
+    the levels' row blocks when none is empty)."""
     A, b, ends = stacked
     d = A @ x - b
+    starts = _STARTS.get(ends)
+    if starts is None:
+        if len(_STARTS) > 64:
+            _STARTS.clear()
+        firsts = (0, *ends[:-1])
+        starts = _STARTS[ends] = (np.array(firsts, dtype=np.intp)
+                                  if all(i < j for i, j in zip(firsts, ends, strict=True)) else False)
+    if starts is not False:
+        return np.sqrt(np.add.reduceat(d * d, starts))
     out = []
     i = 0
     for j in ends:
@@ -649,6 +665,10 @@ def _stacked_residuals(stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]], 
         out.append(math.sqrt(di.dot(di)))
         i = j
     return np.array(out)
+
+
+#: each ``ends`` of `_stacked_residuals`: its levels' first rows, or False when a level is empty
+_STARTS: dict[tuple[int, ...], Any] = {}
 
 
 def _spd_solve(H: np.ndarray, g: np.ndarray) -> np.ndarray:
@@ -689,19 +709,64 @@ _SEG_EPS = 1e-12  # a direction this small along a bound counts as parallel to i
 
 def _null_space(M: np.ndarray, tolerance: float) -> np.ndarray:
     """An orthonormal basis (r, r − rank) of the null space of M (m, r): the right singular
-    vectors whose singular values are below ``tolerance · max(1, σ_max)``."""
-    r = M.shape[1]
-    if M.shape[0] == 0:
+    vectors whose singular values are below ``tolerance · max(1, σ_max)``.
+
+    Where M has full rank with room to spare (the common case), a QR factorisation answers
+    at a fraction of an SVD's cost (`_null_space_qr`); the SVD decides the rank otherwise."""
+    m, r = M.shape
+    if m == 0:
         return np.eye(r)
     if r == 1:  # one column: its norm is its one singular value
         s1 = math.sqrt(float(M[:, 0].dot(M[:, 0])))
         return np.ones((1, 0 if s1 > tolerance * max(1.0, s1) else 1))
+    Z = _null_space_qr(M, tolerance)
+    if Z is not None:
+        return Z
     _, s, vt, info = _dgesdd(M, compute_uv=1, full_matrices=1)
     if info != 0:  # pragma: no cover - LAPACK's own failure: numpy's SVD (raises LinAlgError)
         _, s, vt = np.linalg.svd(M, full_matrices=True)
     tol = tolerance * max(1.0, float(s[0]) if s.size else 0.0)
     rank = int(np.count_nonzero(s > tol))
     return vt[rank:].T
+
+
+def _null_space_qr(M: np.ndarray, tolerance: float) -> np.ndarray | None:
+    """`_null_space` of an M (m, r) of full rank min(m, r), from one QR factorisation
+    (LAPACK ``dgeqrf``): of Mᵀ = Q R when m < r — the null space is then spanned by the
+    last r − m columns of the full Q (``dorgqr``) — and of M = Q R when m ≥ r (no null
+    space). None when the rank is not certain: the singular values of M are those of the
+    triangle R (p × p, p = min(m, r)), and
+
+        σ_min ≥ 1/‖R⁻¹‖_F,        σ_max ≤ ‖R‖_F,
+
+    so ``‖R⁻¹‖_F · tolerance · max(1, ‖R‖_F) < 1`` proves every singular value above the
+    SVD's threshold ``tolerance · max(1, σ_max)``: both answers then span the same space
+    (‖R‖_F = ‖M‖_F; ‖R⁻¹‖_F is bounded by the norm of the whole p × p block that holds
+    R⁻¹, whose part below the diagonal keeps the Householder vectors: they only enlarge
+    it, so the test stays a proof)."""
+    m, r = M.shape
+    wide = m < r
+    if wide:  # Mᵀ in the first m columns of the r × r array dorgqr will fill with Q (in place)
+        a = np.empty((r, r), order="F")
+        a[:, :m] = M.T
+        qr, tau, _, info = _dgeqrf(a[:, :m], overwrite_a=1)
+        p = m
+    else:
+        qr, tau, _, info = _dgeqrf(M)
+        p = r
+    inv, info2 = _dtrtri(qr[:p, :p])
+    if info != 0 or info2 != 0:
+        return None
+    f_inv = inv.ravel("K")
+    f_r = M.ravel("K")  # (‖R‖_F = ‖M‖_F: Q is orthogonal)
+    if not tolerance * tolerance * float(f_inv.dot(f_inv)) * max(1.0, float(f_r.dot(f_r))) < 1.0:
+        return None  # (NaN: not proved either)
+    if not wide:
+        return _no_columns(r)
+    q, _, info3 = _dorgqr(a, tau, overwrite_a=1)
+    if info3 != 0:  # pragma: no cover - LAPACK's argument check
+        return None
+    return q[:, m:]
 
 
 def _owned_result(qd, residuals, qps, freedom, lo, hi, box_active, rows_active, relaxed,

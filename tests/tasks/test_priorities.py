@@ -240,3 +240,71 @@ def test_the_cascade_reaches_the_textbook_cascade_residuals(seed, rows, off0, of
         best = _best_residual(A, b, lo, hi, G, h, [L[0] for L in levels[:k]], got.qd)
         assume(best is not None)
         assert got.residuals[k] <= best + 1e-6 * (1.0 + best)
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 8), st.integers(2, 8), st.integers(0, 8),
+       st.sampled_from([1e-12, 1e-6, 1.0, 1e6]))
+def test_the_null_space_spans_the_singular_vectors_the_svd_leaves(seed, m, r, rank, scale):
+    # the QR shortcut and the SVD must give the same space (any orthonormal basis of it):
+    # full-rank rows and columns, rank-deficient products, tiny and huge scales
+    from ratectl.solvers.priority import _null_space
+
+    rng = np.random.default_rng(seed)
+    rank = min(rank, m, r)
+    M = scale * (rng.normal(size=(m, rank)) @ rng.normal(size=(rank, r)))
+    tol = 1e-9
+    Z = _null_space(M, tol)
+    _, s, vt = np.linalg.svd(M)
+    keep = int(np.sum(s > tol * max(1.0, s[0] if s.size else 0.0)))
+    N = vt[keep:].T
+    assert Z.shape == N.shape
+    np.testing.assert_allclose(Z.T @ Z, np.eye(Z.shape[1]), atol=1e-12)
+    np.testing.assert_allclose(Z @ Z.T, N @ N.T, atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 9))
+def test_a_weighted_first_level_in_a_box_without_zero_is_its_damped_least_squares(seed, m):
+    # the first level's minimiser does not depend on where the cascade starts (the box's
+    # point nearest q̇ = 0): a box around the answer that excludes q̇ = 0 changes nothing
+    rng = np.random.default_rng(seed)
+    n = 7
+    A, b, w = rng.normal(size=(m, n)), rng.normal(size=m), rng.uniform(0.1, 10.0, size=m)
+    lam = 1e-3
+    sw = np.sqrt(w)
+    # min ‖W^{1/2}(A x − b)‖² + λ²‖x‖², independently: the stacked least-squares problem
+    expected = np.linalg.lstsq(np.vstack([sw[:, None] * A, lam * np.eye(n)]),
+                               np.concatenate([sw * b, np.zeros(n)]), rcond=None)[0]
+    lo = expected - rng.uniform(0.1, 1.0, size=n)
+    hi = expected + rng.uniform(0.1, 1.0, size=n)
+    j = int(np.argmax(np.abs(expected)))  # this joint's interval holds its answer, not 0
+    lo[j], hi[j] = expected[j] - 0.5 * abs(expected[j]), expected[j] + 0.5 * abs(expected[j])
+    assume(abs(expected[j]) > 1e-6)
+    c = PriorityCascade(damping=lam)
+    c.box = lambda n_, *a: (lo.copy(), hi.copy())
+    got = c.solve([(A, b, w)], limits=_Box(n, 1e6))
+    np.testing.assert_allclose(got.qd, expected, rtol=1e-7, atol=1e-7)  # (H's κ reaches 1e7)
+    assert not got.qps.any()
+
+
+@pytest.mark.parametrize("empty", [0, 1, 2])
+def test_each_levels_residual_is_reported_with_an_empty_level_anywhere(empty):
+    # three levels in one stacked layout, one of them without rows (a posture on no joints)
+    ch = rc.robots.panda()
+    q = 0.5 * (ch.qlim[:, 0] + ch.qlim[:, 1]) + 0.1
+    link = ch.link_names[3]
+    tasks = [rc.tasks.Pose(priority=0, target=ch.fk(q + 0.05)),
+             rc.tasks.Position(link=link, priority=1, target=ch.fk(q, link=link)[:3, 3] + 0.02),
+             rc.tasks.Posture(q + 0.2, priority=2, gain=1.0)]
+    tasks[empty] = rc.tasks.Posture(q, joints=[], priority=empty)
+    ctrl = rc.ResolvedRateController(ch, tasks=tasks)
+    cmd = ctrl.step(q, dt=1e-3)
+    assert cmd.status != "halted", cmd.reason
+    expected = []
+    for t in tasks:
+        r = t.rows(ch, q)
+        d = r.A @ cmd.solve.qd - r.b
+        expected.append(np.linalg.norm(d))
+    np.testing.assert_allclose(cmd.solve.residuals, expected, rtol=1e-12, atol=1e-12)
+    assert cmd.solve.residuals[empty] == 0.0
