@@ -313,17 +313,36 @@ def so3_log_rows(R: list[list[float]]) -> tuple[float, float, float, float]:
     return f * vx, f * vy, f * vz, th
 
 
+def rotation_error_rows(Rd: list[list[float]], R: list[list[float]]) -> tuple[float, float, float, float]:
+    """`so3_log_rows` of ``R_d Rᵀ`` for two rotations given as rows of floats (the rows of
+    a pose: a fourth column is ignored): ``(x, y, z, θ)``, the rotation vector that takes R
+    to R_d in base axes and its angle [rad] — the rotational part of the pose error. Each
+    entry of the product is the dot product of a row of R_d with a row of R, summed in
+    index order."""
+    a, b, c = Rd[0], Rd[1], Rd[2]
+    u, v, w = R[0], R[1], R[2]
+    a0, a1, a2, b0, b1, b2, c0, c1, c2 = a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]
+    u0, u1, u2, v0, v1, v2, w0, w1, w2 = u[0], u[1], u[2], v[0], v[1], v[2], w[0], w[1], w[2]
+    return so3_log_rows([
+        [a0 * u0 + a1 * u1 + a2 * u2, a0 * v0 + a1 * v1 + a2 * v2, a0 * w0 + a1 * w1 + a2 * w2],
+        [b0 * u0 + b1 * u1 + b2 * u2, b0 * v0 + b1 * v1 + b2 * v2, b0 * w0 + b1 * w1 + b2 * w2],
+        [c0 * u0 + c1 * u1 + c2 * u2, c0 * v0 + c1 * v1 + c2 * v2, c0 * w0 + c1 * w1 + c2 * w2]])
+
+
 def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray) -> tuple[float, float]:
     """`pose_error` of one pair of (4, 4) poses written into ``out`` (6,).
 
     Returns ``(‖p_d − p‖ [m], θ [rad])``, the norms of the two parts. The scalar
-    arithmetic avoids numpy's per-call cost on 3-vectors (this runs every control
-    cycle); the rotational part is `so3_log_rows` of R_d Rᵀ.
+    arithmetic on the poses' rows as Python floats avoids numpy's per-call cost on
+    3-vectors (this runs every control cycle); the rotational part is
+    `rotation_error_rows`, log(R_d Rᵀ).
     """
-    ex = float(T_desired[0, 3] - T_actual[0, 3])
-    ey = float(T_desired[1, 3] - T_actual[1, 3])
-    ez = float(T_desired[2, 3] - T_actual[2, 3])
-    x, y, z, th = so3_log_rows((T_desired[:3, :3] @ T_actual[:3, :3].T).tolist())
+    d = T_desired.tolist()
+    a = T_actual.tolist()
+    ex = d[0][3] - a[0][3]
+    ey = d[1][3] - a[1][3]
+    ez = d[2][3] - a[2][3]
+    x, y, z, th = rotation_error_rows(d, a)
     out[:] = (ex, ey, ez, x, y, z)
     return math.sqrt(ex * ex + ey * ey + ez * ez), th
 
