@@ -347,6 +347,25 @@ def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray
     return math.sqrt(ex * ex + ey * ey + ez * ez), th
 
 
+def is_rigid_rows(rows: list[list[float]], *, tolerance: float = 1e-6) -> bool:
+    """True when the four rows of floats ``rows`` (a 4×4 pose's ``tolist()``) are a rigid
+    transform by the test of `rigid_transform_defect` (finite, max|RRᵀ − I| and |det R − 1|
+    within ``tolerance``, last row [0, 0, 0, 1]), which says what is wrong when it is not.
+    Plain arithmetic on one list: the per-cycle check of a servo target."""
+    r0, r1, r2, r3 = rows
+    t = sum(r3, sum(r2, sum(r1, sum(r0))))
+    if not (t - t == 0.0 and r3 == [0.0, 0.0, 0.0, 1.0]):
+        return False
+    a0, a1, a2 = r0[0], r0[1], r0[2]
+    b0, b1, b2 = r1[0], r1[1], r1[2]
+    c0, c1, c2 = r2[0], r2[1], r2[2]
+    ortho = max(abs(a0 * a0 + a1 * a1 + a2 * a2 - 1.0), abs(b0 * b0 + b1 * b1 + b2 * b2 - 1.0),
+                abs(c0 * c0 + c1 * c1 + c2 * c2 - 1.0), abs(a0 * b0 + a1 * b1 + a2 * b2),
+                abs(a0 * c0 + a1 * c1 + a2 * c2), abs(b0 * c0 + b1 * c1 + b2 * c2))
+    det = a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0)
+    return ortho <= tolerance and abs(det - 1.0) <= tolerance
+
+
 def rigid_transform_defect(T: ArrayLike, *, tolerance: float = 1e-6) -> str | None:
     """What keeps ``T`` from being a rigid transform (4×4, finite, orthonormal rotation with
     det +1, last row [0, 0, 0, 1]), as a phrase for an error message; None when it is one.
@@ -354,22 +373,9 @@ def rigid_transform_defect(T: ArrayLike, *, tolerance: float = 1e-6) -> str | No
     ``tolerance`` bounds max|RRᵀ − I| and |det R − 1|. A scaled rotation (‖R‖ ≠ 1) and a
     mirror (det R = −1) are both refused.
     """
-    if type(T) is np.ndarray and T.dtype == np.float64 and T.shape == (4, 4):
-        # the per-cycle case (a servo target): plain arithmetic on one list, the
-        # message only when something is wrong
-        r = T.tolist()
-        r0, r1, r2, r3 = r
-        t = sum(r0) + sum(r1) + sum(r2) + sum(r3)
-        if t - t == 0.0 and r3 == [0.0, 0.0, 0.0, 1.0]:
-            a0, a1, a2 = r0[0], r0[1], r0[2]
-            b0, b1, b2 = r1[0], r1[1], r1[2]
-            c0, c1, c2 = r2[0], r2[1], r2[2]
-            ortho = max(abs(a0 * a0 + a1 * a1 + a2 * a2 - 1.0), abs(b0 * b0 + b1 * b1 + b2 * b2 - 1.0),
-                        abs(c0 * c0 + c1 * c1 + c2 * c2 - 1.0), abs(a0 * b0 + a1 * b1 + a2 * b2),
-                        abs(a0 * c0 + a1 * c1 + a2 * c2), abs(b0 * c0 + b1 * c1 + b2 * c2))
-            det = a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0)
-            if ortho <= tolerance and abs(det - 1.0) <= tolerance:
-                return None
+    if type(T) is np.ndarray and T.dtype == np.float64 and T.shape == (4, 4) and is_rigid_rows(
+            T.tolist(), tolerance=tolerance):
+        return None  # (the per-cycle case, a servo target: the message only when something is wrong)
     try:
         if isinstance(T, str | bytes) or np.iscomplexobj(T):
             raise TypeError("T")
