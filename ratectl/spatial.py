@@ -300,13 +300,16 @@ def so3_log_rows(R: list[list[float]]) -> tuple[float, float, float, float]:
     """`so3_log` of one rotation given as three rows of floats: ``(x, y, z, θ)``, the
     rotation vector and its angle [rad]. The angle is ``atan2(‖vee(R)‖, (tr R − 1)/2)``;
     past ``cos θ < −0.9`` the axis comes from `so3_log`'s symmetric-part branch."""
-    vx = 0.5 * (R[2][1] - R[1][2])
-    vy = 0.5 * (R[0][2] - R[2][0])
-    vz = 0.5 * (R[1][0] - R[0][1])
     c = 0.5 * (R[0][0] + R[1][1] + R[2][2] - 1.0)
     if c < -0.9:
         x, y, z = so3_log(np.array(R)).tolist()
         return x, y, z, math.sqrt(x * x + y * y + z * z)
+    return _log_skew(0.5 * (R[2][1] - R[1][2]), 0.5 * (R[0][2] - R[2][0]), 0.5 * (R[1][0] - R[0][1]), c)
+
+
+def _log_skew(vx: float, vy: float, vz: float, c: float) -> tuple[float, float, float, float]:
+    """`so3_log_rows` away from π (c = cos θ ≥ −0.9) from vee(R) = (vx, vy), vz and c:
+    θ = atan2(‖vee(R)‖, c), w = θ/sin θ · vee(R) (the series 1 + θ²/6 near 0)."""
     s = math.sqrt(vx * vx + vy * vy + vz * vz)
     th = math.atan2(s, c)
     f = th / s if th > _SMALL else 1.0 + th * th / 6.0
@@ -323,10 +326,19 @@ def rotation_error_rows(Rd: list[list[float]], R: list[list[float]]) -> tuple[fl
     u, v, w = R[0], R[1], R[2]
     a0, a1, a2, b0, b1, b2, c0, c1, c2 = a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]
     u0, u1, u2, v0, v1, v2, w0, w1, w2 = u[0], u[1], u[2], v[0], v[1], v[2], w[0], w[1], w[2]
-    return so3_log_rows([
-        [a0 * u0 + a1 * u1 + a2 * u2, a0 * v0 + a1 * v1 + a2 * v2, a0 * w0 + a1 * w1 + a2 * w2],
-        [b0 * u0 + b1 * u1 + b2 * u2, b0 * v0 + b1 * v1 + b2 * v2, b0 * w0 + b1 * w1 + b2 * w2],
-        [c0 * u0 + c1 * u1 + c2 * u2, c0 * v0 + c1 * v1 + c2 * v2, c0 * w0 + c1 * w1 + c2 * w2]])
+    m00 = a0 * u0 + a1 * u1 + a2 * u2
+    m11 = b0 * v0 + b1 * v1 + b2 * v2
+    m22 = c0 * w0 + c1 * w1 + c2 * w2
+    m01 = a0 * v0 + a1 * v1 + a2 * v2
+    m02 = a0 * w0 + a1 * w1 + a2 * w2
+    m10 = b0 * u0 + b1 * u1 + b2 * u2
+    m12 = b0 * w0 + b1 * w1 + b2 * w2
+    m20 = c0 * u0 + c1 * u1 + c2 * u2
+    m21 = c0 * v0 + c1 * v1 + c2 * v2
+    cos = 0.5 * (m00 + m11 + m22 - 1.0)
+    if cos < -0.9:
+        return so3_log_rows([[m00, m01, m02], [m10, m11, m12], [m20, m21, m22]])
+    return _log_skew(0.5 * (m21 - m12), 0.5 * (m02 - m20), 0.5 * (m10 - m01), cos)
 
 
 def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray) -> tuple[float, float]:

@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from ..arrays import shared_zeros
 from ..model.limits import stopping_distance
 from ..spatial import rotation_error_rows, so3_exp_rows
 from .progress import ProgressCaps
@@ -171,14 +172,14 @@ class StraightApproach(Progress):
         self._pose_at: tuple[float, np.ndarray] | None = None
         self._v_target = 0.0  # the last estimate of the target's speed along its segment
         self.L = 0.0
-        self.d = np.zeros(6)
+        self.d = shared_zeros(6)
         self._d = [0.0] * 6
         self.w_prev: np.ndarray | None = None
         self.restart()
 
     def weighted_dot(self, a: np.ndarray, b: np.ndarray) -> float:
         """⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω for two twists (6,)."""
-        return self._wdot(a.tolist(), b.tolist())
+        return self._wdot(a.tolist(), self._d if b is self.d else b.tolist())
 
     def _wdot(self, a: list[float], b: list[float]) -> float:
         """`weighted_dot` of two twists given as 6 floats."""
@@ -186,7 +187,8 @@ class StraightApproach(Progress):
 
     def weighted_norm(self, e: np.ndarray) -> float:
         """‖e‖_W for a twist or a pose error (6,)."""
-        return math.sqrt(max(self.weighted_dot(e, e), 0.0))
+        el = e.tolist()
+        return math.sqrt(max(self._wdot(el, el), 0.0))
 
     @property
     def settled(self) -> bool:
@@ -276,6 +278,7 @@ class StraightApproach(Progress):
         else:
             d = self._d = [0.0] * 6
         self.d = np.array(d)
+        self.d.setflags(write=False)  # (= self._d, which weighted_dot reads for it)
 
     def _pose_rows(self, s: float) -> tuple[list[float], list[list[float]]]:
         """(p, R) of T(s) as floats: p₀ + (s/L)Δp and exp((s/L)·r) R₀."""
