@@ -10,6 +10,9 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from itertools import repeat
+from operator import gt as _gt
+from operator import sub as _sub
 from types import MappingProxyType
 from typing import Any
 
@@ -88,15 +91,18 @@ class Motion:
         ``q_prev`` owes nothing: its lead is its measured q again (a gap a sag or friction
         left, which the arm will never travel, is forgotten)."""
         # (Python floats: a per-cycle hot path on a handful of joints)
-        ql, qn = q.tolist(), q_next.tolist()
         lead = self.q_lead
         if lead is None or q_prev is None or self.q_next is None:
-            self.q_lead = np.array([a + (b - a) for a, b in zip(ql, qn, strict=True)])
+            self.q_lead = q + (q_next - q)
+            return
+        pl, ml = q_prev.tolist(), self.q_next.tolist()
+        if all(map(_gt, map(abs, map(_sub, ml, pl)), repeat(_AT_REST))):
+            # every joint was moved by the last command: each keeps its lead (the common case)
+            self.q_lead = lead + (q_next - q)
             return
         self.q_lead = np.array([
             (ld if (abs(m - p) > _AT_REST or (a - p) * (ld - a) > 0.0) else a) + (b - a)
-            for a, b, p, m, ld in zip(ql, qn, q_prev.tolist(), self.q_next.tolist(), lead.tolist(),
-                                      strict=True)])
+            for a, b, p, m, ld in zip(q.tolist(), q_next.tolist(), pl, ml, lead.tolist(), strict=True)])
 
 
 class Cycle:
