@@ -29,6 +29,7 @@ import numpy as np
 from ..arrays import shared_zeros
 from ..model.limits import stopping_distance
 from ..spatial import rotation_error_rows, so3_exp_rows
+from .cycle import _same_rotation
 from .progress import ProgressCaps
 from .smoothing import ProgressProfile
 
@@ -246,10 +247,7 @@ class StraightApproach(Progress):
         if self.target is None or not dt > 0.0:
             return None
         o = self._t
-        (a0, a1, a2, _), (b0, b1, b2, _), (c0, c1, c2, _) = t[0], t[1], t[2]
-        (u0, u1, u2, _), (v0, v1, v2, _), (w0, w1, w2, _) = o[0], o[1], o[2]
-        if (a0 == u0 and a1 == u1 and a2 == u2 and b0 == v0 and b1 == v1 and b2 == v2
-                and c0 == w0 and c1 == w1 and c2 == w2):
+        if _same_rotation(t, o):
             x = y = z = 0.0  # the same orientation: log(R Rᵀ) is exactly 0 (the product's
             # off-diagonal pairs are the same dot products, whose skew part cancels exactly)
         else:

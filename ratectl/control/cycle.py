@@ -4,7 +4,8 @@
   solve, q̇, q̈, the status flags and reasons);
 * `Motion` — the motion the controller last commanded (q̇, q̈), which the stages read as
   "the previous cycle";
-* small helpers on a cycle's numbers (`_finite_sum`, `_same`, `_scaled_like`, `_info`).
+* small helpers on a cycle's numbers (`_finite_sum`, `_same`, `_same_rotation`, `_scaled_like`,
+  `_info`).
 """
 
 from __future__ import annotations
@@ -32,6 +33,15 @@ def _same(a: np.ndarray, b: np.ndarray | None) -> bool:
     """``np.array_equal(a, b)`` for the few numbers of one cycle (a pose, a twist), through
     Python lists: the same answer (−0.0 equals 0.0, NaN equals nothing), ~5× cheaper."""
     return b is not None and a.shape == b.shape and a.tolist() == b.tolist()
+
+
+def _same_rotation(t: list[list[float]], o: list[list[float]]) -> bool:
+    """Whether two poses given as their rows of floats (``tolist()``) have the same rotation
+    block, entry for entry (a target that only translates)."""
+    (a0, a1, a2, _), (b0, b1, b2, _), (c0, c1, c2, _) = t[0], t[1], t[2]
+    (u0, u1, u2, _), (v0, v1, v2, _), (w0, w1, w2, _) = o[0], o[1], o[2]
+    return (a0 == u0 and a1 == u1 and a2 == u2 and b0 == v0 and b1 == v1 and b2 == v2
+            and c0 == w0 and c1 == w1 and c2 == w2)
 
 
 def _info(res: Any) -> Mapping[str, Any]:

@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..spatial import is_rigid_rows, rigid_transform_defect
-from .cycle import _finite_sum
+from .cycle import _finite_sum, _same_rotation
 
 __all__ = ["Gate"]
 
@@ -134,8 +134,12 @@ class Gate:
         if bad is not None:
             self.latched = f"non-finite {bad} (NaN or inf); reset() to resume"
             return self.latched, dt
-        if rows is not None and rows != self._target_ok:  # (the rows: NaN equals nothing, −0.0 0.0)
-            if not is_rigid_rows(rows):
+        ok = self._target_ok
+        if rows is not None and rows != ok:  # (the rows: NaN equals nothing, −0.0 0.0)
+            # rigid: the rotation block and the last row of the last rigid target (a target
+            # that only translates; finite, as checked above), else by the test itself
+            if not (ok is not None and rows[3] == [0.0, 0.0, 0.0, 1.0] and _same_rotation(rows, ok)
+                    or is_rigid_rows(rows)):
                 defect = rigid_transform_defect(target)
                 if defect is not None:  # a scaled, sheared or mirrored pose: no motion toward it
                     return f"target {defect}", dt
