@@ -300,32 +300,82 @@ def so3_log_rows(R: list[list[float]]) -> tuple[float, float, float, float]:
     """`so3_log` of one rotation given as three rows of floats: ``(x, y, z, θ)``, the
     rotation vector and its angle [rad]. The angle is ``atan2(‖vee(R)‖, (tr R − 1)/2)``;
     past ``cos θ < −0.9`` the axis comes from `so3_log`'s symmetric-part branch."""
-    vx = 0.5 * (R[2][1] - R[1][2])
-    vy = 0.5 * (R[0][2] - R[2][0])
-    vz = 0.5 * (R[1][0] - R[0][1])
     c = 0.5 * (R[0][0] + R[1][1] + R[2][2] - 1.0)
     if c < -0.9:
         x, y, z = so3_log(np.array(R)).tolist()
         return x, y, z, math.sqrt(x * x + y * y + z * z)
+    return _log_skew(0.5 * (R[2][1] - R[1][2]), 0.5 * (R[0][2] - R[2][0]), 0.5 * (R[1][0] - R[0][1]), c)
+
+
+def _log_skew(vx: float, vy: float, vz: float, c: float) -> tuple[float, float, float, float]:
+    """`so3_log_rows` away from π (c = cos θ ≥ −0.9) from vee(R) = (vx, vy), vz and c:
+    θ = atan2(‖vee(R)‖, c), w = θ/sin θ · vee(R) (the series 1 + θ²/6 near 0)."""
     s = math.sqrt(vx * vx + vy * vy + vz * vz)
     th = math.atan2(s, c)
     f = th / s if th > _SMALL else 1.0 + th * th / 6.0
     return f * vx, f * vy, f * vz, th
 
 
+def rotation_error_rows(Rd: list[list[float]], R: list[list[float]]) -> tuple[float, float, float, float]:
+    """`so3_log_rows` of ``R_d Rᵀ`` for two rotations given as rows of floats (the rows of
+    a pose: a fourth column is ignored): ``(x, y, z, θ)``, the rotation vector that takes R
+    to R_d in base axes and its angle [rad] — the rotational part of the pose error. Each
+    entry of the product is the dot product of a row of R_d with a row of R, summed in
+    index order."""
+    a, b, c = Rd[0], Rd[1], Rd[2]
+    u, v, w = R[0], R[1], R[2]
+    a0, a1, a2, b0, b1, b2, c0, c1, c2 = a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]
+    u0, u1, u2, v0, v1, v2, w0, w1, w2 = u[0], u[1], u[2], v[0], v[1], v[2], w[0], w[1], w[2]
+    m00 = a0 * u0 + a1 * u1 + a2 * u2
+    m11 = b0 * v0 + b1 * v1 + b2 * v2
+    m22 = c0 * w0 + c1 * w1 + c2 * w2
+    m01 = a0 * v0 + a1 * v1 + a2 * v2
+    m02 = a0 * w0 + a1 * w1 + a2 * w2
+    m10 = b0 * u0 + b1 * u1 + b2 * u2
+    m12 = b0 * w0 + b1 * w1 + b2 * w2
+    m20 = c0 * u0 + c1 * u1 + c2 * u2
+    m21 = c0 * v0 + c1 * v1 + c2 * v2
+    cos = 0.5 * (m00 + m11 + m22 - 1.0)
+    if cos < -0.9:
+        return so3_log_rows([[m00, m01, m02], [m10, m11, m12], [m20, m21, m22]])
+    return _log_skew(0.5 * (m21 - m12), 0.5 * (m02 - m20), 0.5 * (m10 - m01), cos)
+
+
 def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray) -> tuple[float, float]:
     """`pose_error` of one pair of (4, 4) poses written into ``out`` (6,).
 
     Returns ``(‖p_d − p‖ [m], θ [rad])``, the norms of the two parts. The scalar
-    arithmetic avoids numpy's per-call cost on 3-vectors (this runs every control
-    cycle); the rotational part is `so3_log_rows` of R_d Rᵀ.
+    arithmetic on the poses' rows as Python floats avoids numpy's per-call cost on
+    3-vectors (this runs every control cycle); the rotational part is
+    `rotation_error_rows`, log(R_d Rᵀ).
     """
-    ex = float(T_desired[0, 3] - T_actual[0, 3])
-    ey = float(T_desired[1, 3] - T_actual[1, 3])
-    ez = float(T_desired[2, 3] - T_actual[2, 3])
-    x, y, z, th = so3_log_rows((T_desired[:3, :3] @ T_actual[:3, :3].T).tolist())
+    d = T_desired.tolist()
+    a = T_actual.tolist()
+    ex = d[0][3] - a[0][3]
+    ey = d[1][3] - a[1][3]
+    ez = d[2][3] - a[2][3]
+    x, y, z, th = rotation_error_rows(d, a)
     out[:] = (ex, ey, ez, x, y, z)
     return math.sqrt(ex * ex + ey * ey + ez * ez), th
+
+
+def is_rigid_rows(rows: list[list[float]], *, tolerance: float = 1e-6) -> bool:
+    """True when the four rows of floats ``rows`` (a 4×4 pose's ``tolist()``) are a rigid
+    transform by the test of `rigid_transform_defect` (finite, max|RRᵀ − I| and |det R − 1|
+    within ``tolerance``, last row [0, 0, 0, 1]), which says what is wrong when it is not.
+    Plain arithmetic on one list: the per-cycle check of a servo target."""
+    r0, r1, r2, r3 = rows
+    t = sum(r3, sum(r2, sum(r1, sum(r0))))
+    if not (t - t == 0.0 and r3 == [0.0, 0.0, 0.0, 1.0]):
+        return False
+    a0, a1, a2 = r0[0], r0[1], r0[2]
+    b0, b1, b2 = r1[0], r1[1], r1[2]
+    c0, c1, c2 = r2[0], r2[1], r2[2]
+    ortho = max(abs(a0 * a0 + a1 * a1 + a2 * a2 - 1.0), abs(b0 * b0 + b1 * b1 + b2 * b2 - 1.0),
+                abs(c0 * c0 + c1 * c1 + c2 * c2 - 1.0), abs(a0 * b0 + a1 * b1 + a2 * b2),
+                abs(a0 * c0 + a1 * c1 + a2 * c2), abs(b0 * c0 + b1 * c1 + b2 * c2))
+    det = a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0)
+    return ortho <= tolerance and abs(det - 1.0) <= tolerance
 
 
 def rigid_transform_defect(T: ArrayLike, *, tolerance: float = 1e-6) -> str | None:
@@ -335,22 +385,9 @@ def rigid_transform_defect(T: ArrayLike, *, tolerance: float = 1e-6) -> str | No
     ``tolerance`` bounds max|RRᵀ − I| and |det R − 1|. A scaled rotation (‖R‖ ≠ 1) and a
     mirror (det R = −1) are both refused.
     """
-    if type(T) is np.ndarray and T.dtype == np.float64 and T.shape == (4, 4):
-        # the per-cycle case (a servo target): plain arithmetic on one list, the
-        # message only when something is wrong
-        r = T.tolist()
-        r0, r1, r2, r3 = r
-        t = sum(r0) + sum(r1) + sum(r2) + sum(r3)
-        if t - t == 0.0 and r3 == [0.0, 0.0, 0.0, 1.0]:
-            a0, a1, a2 = r0[0], r0[1], r0[2]
-            b0, b1, b2 = r1[0], r1[1], r1[2]
-            c0, c1, c2 = r2[0], r2[1], r2[2]
-            ortho = max(abs(a0 * a0 + a1 * a1 + a2 * a2 - 1.0), abs(b0 * b0 + b1 * b1 + b2 * b2 - 1.0),
-                        abs(c0 * c0 + c1 * c1 + c2 * c2 - 1.0), abs(a0 * b0 + a1 * b1 + a2 * b2),
-                        abs(a0 * c0 + a1 * c1 + a2 * c2), abs(b0 * c0 + b1 * c1 + b2 * c2))
-            det = a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0)
-            if ortho <= tolerance and abs(det - 1.0) <= tolerance:
-                return None
+    if type(T) is np.ndarray and T.dtype == np.float64 and T.shape == (4, 4) and is_rigid_rows(
+            T.tolist(), tolerance=tolerance):
+        return None  # (the per-cycle case, a servo target: the message only when something is wrong)
     try:
         if isinstance(T, str | bytes) or np.iscomplexobj(T):
             raise TypeError("T")

@@ -145,6 +145,23 @@ def test_scalar_so3_forms_agree_with_the_array_forms(axis, angle):
 
 
 @settings(max_examples=300, deadline=None)
+@given(vec3, st.floats(0.0, math.pi), vec3, st.floats(0.0, math.pi))
+def test_rotation_error_rows_is_the_pose_errors_rotation(axis, angle, axis2, angle2):
+    """rotation_error_rows(R_d, R) (rows of floats, a pose's fourth column ignored) is
+    so3_log(R_d Rᵀ) with its angle, and exactly zero for R_d = R (the servo takes the
+    rotation of a target that only translates as 0 without computing it)."""
+    Rd = sp.so3_exp(angle * np.array(axis) / np.linalg.norm(axis))
+    R = sp.so3_exp(angle2 * np.array(axis2) / np.linalg.norm(axis2))
+    Td = np.eye(4)
+    Td[:3, :3] = Rd
+    Td[:3, 3] = [0.3, -0.2, 0.5]
+    x, y, z, th = sp.rotation_error_rows(Td.tolist(), R.tolist())
+    assert np.allclose([x, y, z], sp.so3_log(Rd @ R.T), atol=1e-9, rtol=0)
+    assert th == pytest.approx(np.linalg.norm(sp.so3_log(Rd @ R.T)), abs=1e-9)
+    assert sp.rotation_error_rows(Td.tolist(), Rd.tolist()) == (0.0, 0.0, 0.0, 0.0)
+
+
+@settings(max_examples=300, deadline=None)
 @given(vec3, st.floats(0.0, math.pi), st.integers(0, 15), st.sampled_from([0.0, 1e-7, 2e-6, 1e-3, -1.0]))
 def test_rigid_transform_defect_fast_path_agrees_with_the_full_check(axis, angle, entry, delta):
     """The per-cycle (plain float) path of rigid_transform_defect accepts exactly what the

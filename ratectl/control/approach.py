@@ -26,8 +26,10 @@ import math
 
 import numpy as np
 
+from ..arrays import shared_zeros
 from ..model.limits import stopping_distance
-from ..spatial import so3_exp_rows, so3_log_rows
+from ..spatial import rotation_error_rows, so3_exp_rows
+from .cycle import _same_rotation
 from .progress import ProgressCaps
 from .smoothing import ProgressProfile, SpeedProfile
 
@@ -36,12 +38,6 @@ __all__ = ["Progress", "StraightApproach", "JointLine"]
 _PLANNED = 0.5  # a stop is planned at this share of the progress's acceleration bound
 _URGENT = 2.0  # a late stop brakes with up to this multiple of the bound (all of amax at η = 1/2)
 AT_BLOCK = 1e-5  # [progress units ~ m]: a progress this close to a block, and creeping, stands at it
-
-
-def _rows_times_transpose(A: list[list[float]], B: list[list[float]]) -> list[list[float]]:
-    """A Bᵀ of two rotations given as their first three rows of floats (extra columns, such
-    as a pose's translation, are ignored)."""
-    return [[a[0] * b[0] + a[1] * b[1] + a[2] * b[2] for b in B[:3]] for a in A[:3]]
 
 
 def _stop_bound(v: float, a: float, brake: float, jerk: float) -> float:
@@ -206,6 +202,7 @@ class StraightApproach(Progress):
     def reset(self) -> None:
         """Forget the segment and the progress (the next target starts a new approach)."""
         self.target: np.ndarray | None = None
+        self._t: list[list[float]] = []  # the target's rows as floats (its last estimate of motion)
         # the segment in plain floats (a target that moves starts a segment every period)
         self._p0 = [0.0, 0.0, 0.0]
         self._R0 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
@@ -214,14 +211,14 @@ class StraightApproach(Progress):
         self._pose_at: tuple[float, np.ndarray] | None = None
         self._v_target = 0.0  # the last estimate of the target's speed along its segment
         self.L = 0.0
-        self.d = np.zeros(6)
+        self.d = shared_zeros(6)
         self._d = [0.0] * 6
         self.w_prev: np.ndarray | None = None
         self.restart()
 
     def weighted_dot(self, a: np.ndarray, b: np.ndarray) -> float:
         """⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω for two twists (6,)."""
-        return self._wdot(a.tolist(), b.tolist())
+        return self._wdot(a.tolist(), self._d if b is self.d else b.tolist())
 
     def _wdot(self, a: list[float], b: list[float]) -> float:
         """`weighted_dot` of two twists given as 6 floats."""
@@ -229,7 +226,8 @@ class StraightApproach(Progress):
 
     def weighted_norm(self, e: np.ndarray) -> float:
         """‖e‖_W for a twist or a pose error (6,)."""
-        return math.sqrt(max(self.weighted_dot(e, e), 0.0))
+        el = e.tolist()
+        return math.sqrt(max(self._wdot(el, el), 0.0))
 
     @property
     def settled(self) -> bool:
@@ -263,9 +261,10 @@ class StraightApproach(Progress):
         on it. A target that jumps (a switch) is not moving: v counts only when two
         successive estimates agree within 25 %, and the smaller is taken."""
         d_old, sd, sdd = self._d, self.sd, self.sdd
-        tau = self._target_rate(target, dt) if dt is not None else None
+        t = target.tolist()
+        tau = self._target_rate(t, dt) if dt is not None else None
         p, R = self._pose_rows(self.s)
-        self._segment(target, p, R)
+        self._segment(target, p, R, t)
         if self.L > 0.0:
             proj = self._wdot(d_old, self._d)
             v = max(sd * proj, 0.0)
@@ -280,13 +279,17 @@ class StraightApproach(Progress):
             self.restart()
             self._v_target = 0.0
 
-    def _target_rate(self, target: np.ndarray, dt: float) -> list[float] | None:
-        """τ = [p − p_prev; log(R R_prevᵀ)]/dt of ``target`` after the present one (base
-        axes), or None without a present one."""
+    def _target_rate(self, t: list[list[float]], dt: float) -> list[float] | None:
+        """τ = [p − p_prev; log(R R_prevᵀ)]/dt of the target with rows ``t`` (floats) after the
+        present one (base axes), or None without a present one."""
         if self.target is None or not dt > 0.0:
             return None
-        t, o = target.tolist(), self.target.tolist()
-        x, y, z, _ = so3_log_rows(_rows_times_transpose(t, o))
+        o = self._t
+        if _same_rotation(t, o):
+            x = y = z = 0.0  # the same orientation: log(R Rᵀ) is exactly 0 (the product's
+            # off-diagonal pairs are the same dot products, whose skew part cancels exactly)
+        else:
+            x, y, z, _ = rotation_error_rows(t, o)
         k = 1.0 / dt
         return [(t[0][3] - o[0][3]) * k, (t[1][3] - o[1][3]) * k, (t[2][3] - o[2][3]) * k,
                 x * k, y * k, z * k]
@@ -296,13 +299,17 @@ class StraightApproach(Progress):
         self.end_speed = 0.0
         self._v_target = 0.0
 
-    def _segment(self, target: np.ndarray, p0: list[float], R0: list[list[float]]) -> None:
-        """The segment from (p0, R0) (floats) to ``target``: Δp, r = log(R_d R₀ᵀ), L, d."""
+    def _segment(self, target: np.ndarray, p0: list[float], R0: list[list[float]],
+                 t: list[list[float]] | None = None) -> None:
+        """The segment from (p0, R0) (floats) to ``target`` (its rows as floats ``t``, when the
+        caller has them): Δp, r = log(R_d R₀ᵀ), L, d."""
         self.target = target.copy()
-        t = target.tolist()
+        if t is None:
+            t = target.tolist()
+        self._t = t
         self._p0, self._R0 = p0, R0
         dp = self._dp = [t[0][3] - p0[0], t[1][3] - p0[1], t[2][3] - p0[2]]
-        x, y, z, _ = so3_log_rows(_rows_times_transpose(t, R0))
+        x, y, z, _ = rotation_error_rows(t, R0)
         self._r = [x, y, z]
         L = math.sqrt(dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2] + self._l2 * (x * x + y * y + z * z))
         self.L = L
@@ -310,10 +317,11 @@ class StraightApproach(Progress):
         self._pose_at = None
         if L > 0.0:
             k = 1.0 / L
-            self._d = [dp[0] * k, dp[1] * k, dp[2] * k, x * k, y * k, z * k]
+            d = self._d = [dp[0] * k, dp[1] * k, dp[2] * k, x * k, y * k, z * k]
         else:
-            self._d = [0.0] * 6
-        self.d = np.array(self._d)
+            d = self._d = [0.0] * 6
+        self.d = np.array(d)
+        self.d.setflags(write=False)  # (= self._d, which weighted_dot reads for it)
 
     def _pose_rows(self, s: float) -> tuple[list[float], list[list[float]]]:
         """(p, R) of T(s) as floats: p₀ + (s/L)Δp and exp((s/L)·r) R₀."""
@@ -323,11 +331,11 @@ class StraightApproach(Progress):
         if f == 0.0:
             return p, self._R0
         r = self._r
-        E = so3_exp_rows(f * r[0], f * r[1], f * r[2])
-        a, b, c = self._R0
-        R = [[e[0] * a[0] + e[1] * b[0] + e[2] * c[0], e[0] * a[1] + e[1] * b[1] + e[2] * c[1],
-              e[0] * a[2] + e[1] * b[2] + e[2] * c[2]] for e in E]
-        return p, R
+        (e0, e1, e2), (g0, g1, g2), (h0, h1, h2) = so3_exp_rows(f * r[0], f * r[1], f * r[2])
+        (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = self._R0
+        return p, [[e0 * a0 + e1 * b0 + e2 * c0, e0 * a1 + e1 * b1 + e2 * c1, e0 * a2 + e1 * b2 + e2 * c2],
+                   [g0 * a0 + g1 * b0 + g2 * c0, g0 * a1 + g1 * b1 + g2 * c1, g0 * a2 + g1 * b2 + g2 * c2],
+                   [h0 * a0 + h1 * b0 + h2 * c0, h0 * a1 + h1 * b1 + h2 * c1, h0 * a2 + h1 * b2 + h2 * c2]]
 
     def pose(self, s: float) -> np.ndarray:
         """T(s), the reference pose at progress ``s`` (4×4; the same array for the same s
@@ -335,9 +343,9 @@ class StraightApproach(Progress):
         cached = self._pose_at
         if cached is not None and cached[0] == s:
             return cached[1]
-        p, R = self._pose_rows(s)
-        T = np.array([[R[0][0], R[0][1], R[0][2], p[0]], [R[1][0], R[1][1], R[1][2], p[1]],
-                      [R[2][0], R[2][1], R[2][2], p[2]], [0.0, 0.0, 0.0, 1.0]])
+        p, (a, b, c) = self._pose_rows(s)
+        T = np.array((a[0], a[1], a[2], p[0], b[0], b[1], b[2], p[1], c[0], c[1], c[2], p[2],
+                      0.0, 0.0, 0.0, 1.0)).reshape(4, 4)
         self._pose_at = (s, T)
         return T
 

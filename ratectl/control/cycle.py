@@ -4,12 +4,16 @@
   solve, q̇, q̈, the status flags and reasons);
 * `Motion` — the motion the controller last commanded (q̇, q̈), which the stages read as
   "the previous cycle";
-* small helpers on a cycle's numbers (`_finite_sum`, `_same`, `_scaled_like`, `_info`).
+* small helpers on a cycle's numbers (`_finite_sum`, `_same`, `_same_rotation`, `_scaled_like`,
+  `_info`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from itertools import repeat
+from operator import gt as _gt
+from operator import sub as _sub
 from types import MappingProxyType
 from typing import Any
 
@@ -29,6 +33,15 @@ def _same(a: np.ndarray, b: np.ndarray | None) -> bool:
     """``np.array_equal(a, b)`` for the few numbers of one cycle (a pose, a twist), through
     Python lists: the same answer (−0.0 equals 0.0, NaN equals nothing), ~5× cheaper."""
     return b is not None and a.shape == b.shape and a.tolist() == b.tolist()
+
+
+def _same_rotation(t: list[list[float]], o: list[list[float]]) -> bool:
+    """Whether two poses given as their rows of floats (``tolist()``) have the same rotation
+    block, entry for entry (a target that only translates)."""
+    (a0, a1, a2, _), (b0, b1, b2, _), (c0, c1, c2, _) = t[0], t[1], t[2]
+    (u0, u1, u2, _), (v0, v1, v2, _), (w0, w1, w2, _) = o[0], o[1], o[2]
+    return (a0 == u0 and a1 == u1 and a2 == u2 and b0 == v0 and b1 == v1 and b2 == v2
+            and c0 == w0 and c1 == w1 and c2 == w2)
 
 
 def _info(res: Any) -> Mapping[str, Any]:
@@ -88,15 +101,18 @@ class Motion:
         ``q_prev`` owes nothing: its lead is its measured q again (a gap a sag or friction
         left, which the arm will never travel, is forgotten)."""
         # (Python floats: a per-cycle hot path on a handful of joints)
-        ql, qn = q.tolist(), q_next.tolist()
         lead = self.q_lead
         if lead is None or q_prev is None or self.q_next is None:
-            self.q_lead = np.array([a + (b - a) for a, b in zip(ql, qn, strict=True)])
+            self.q_lead = q + (q_next - q)
+            return
+        pl, ml = q_prev.tolist(), self.q_next.tolist()
+        if all(map(_gt, map(abs, map(_sub, ml, pl)), repeat(_AT_REST))):
+            # every joint was moved by the last command: each keeps its lead (the common case)
+            self.q_lead = lead + (q_next - q)
             return
         self.q_lead = np.array([
             (ld if (abs(m - p) > _AT_REST or (a - p) * (ld - a) > 0.0) else a) + (b - a)
-            for a, b, p, m, ld in zip(ql, qn, q_prev.tolist(), self.q_next.tolist(), lead.tolist(),
-                                      strict=True)])
+            for a, b, p, m, ld in zip(q.tolist(), q_next.tolist(), pl, ml, lead.tolist(), strict=True)])
 
 
 class Cycle:

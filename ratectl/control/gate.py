@@ -17,8 +17,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
-from ..spatial import rigid_transform_defect
-from .cycle import _finite_sum, _same
+from ..spatial import is_rigid_rows, rigid_transform_defect
+from .cycle import _finite_sum, _same_rotation
 
 __all__ = ["Gate"]
 
@@ -30,6 +30,14 @@ def _checked_stamp(stamp) -> float:
         raise InputError(f"stamp must be a time in seconds on the controller clock ctrl.time, got {stamp!r}",
                          argument="stamp", value=stamp)
     return float(stamp)
+
+
+def _finite_rows(rows: list[list[float]]) -> bool:
+    """`_finite_sum` of a 4×4 pose given as its rows of floats (the same sum, in the same
+    order)."""
+    r0, r1, r2, r3 = rows
+    t = sum(r3, sum(r2, sum(r1, sum(r0))))
+    return t - t == 0.0
 
 
 def _float_array(value, name: str, what: str) -> np.ndarray:
@@ -46,7 +54,7 @@ class Gate:
     def __init__(self, n: int, timeout: float) -> None:
         self.n = n
         self.timeout = timeout
-        self._target_ok: np.ndarray | None = None  # the last target found rigid
+        self._target_ok: list[list[float]] | None = None  # the last target found rigid (rows)
         self.reset()
 
     def reset(self) -> None:
@@ -112,9 +120,10 @@ class Gate:
         # finiteness through Python float sums (NaN or inf make the sum non-finite; an
         # overflow to inf of finite values is refused too): cheaper than ndarray.sum
         bad = None
+        rows = None
         if not _finite_sum(q):
             bad = "q"
-        elif target is not None and not _finite_sum(target):
+        elif target is not None and not _finite_rows(rows := target.tolist()):
             bad = "target"
         elif twist is not None and not _finite_sum(twist):
             bad = "twist"
@@ -125,12 +134,16 @@ class Gate:
         if bad is not None:
             self.latched = f"non-finite {bad} (NaN or inf); reset() to resume"
             return self.latched, dt
-        if target is not None and not (self._target_ok is not None
-                                       and _same(target, self._target_ok)):
-            defect = rigid_transform_defect(target)
-            if defect is not None:  # a scaled, sheared or mirrored pose: no motion toward it
-                return f"target {defect}", dt
-            self._target_ok = target.copy()
+        ok = self._target_ok
+        if rows is not None and rows != ok:  # (the rows: NaN equals nothing, −0.0 0.0)
+            # rigid: the rotation block and the last row of the last rigid target (a target
+            # that only translates; finite, as checked above), else by the test itself
+            if not (ok is not None and rows[3] == [0.0, 0.0, 0.0, 1.0] and _same_rotation(rows, ok)
+                    or is_rigid_rows(rows)):
+                defect = rigid_transform_defect(target)
+                if defect is not None:  # a scaled, sheared or mirrored pose: no motion toward it
+                    return f"target {defect}", dt
+            self._target_ok = rows
         if stamp is not None and target is not None:
             age = now - stamp
             if not age <= self.timeout:

@@ -176,9 +176,10 @@ class Limiter:
             self._proom = self._pbrake + self._vf * dt
             self._proom_l = self._proom.tolist()
             self._proom_dt = dt
-        # (floats: a hot path) the room on either side below the braking room
-        return any(hi - x < r or x - lo < r
-                   for x, lo, hi, r in zip(q.tolist(), self._plo_l, self._phi_l, self._proom_l, strict=True))
+        # (floats: a hot path) the room on either side, hi − x and x − lo, below the braking room
+        ql = q.tolist()
+        return (any(map(_lt, map(_sub, self._phi_l, ql), self._proom_l))
+                or any(map(_lt, map(_sub, ql, self._plo_l), self._proom_l)))
 
     def _limit_position(self, cyc: Cycle, q, dt) -> None:
         """Clip each joint's q̇ to the speed from which it can still stop before its limits
