@@ -359,14 +359,22 @@ def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray
     return math.sqrt(ex * ex + ey * ey + ez * ez), th
 
 
+def finite_rows(rows: list[list[float]]) -> bool:
+    """Whether every entry of the four rows of floats ``rows`` (a 4×4 pose's ``tolist()``)
+    is finite: their plain sum is (NaN or inf make it non-finite; an overflow to inf of
+    finite values counts as non-finite too)."""
+    r0, r1, r2, r3 = rows
+    t = sum(r3, sum(r2, sum(r1, sum(r0))))
+    return t - t == 0.0
+
+
 def is_rigid_rows(rows: list[list[float]], *, tolerance: float = 1e-6) -> bool:
     """True when the four rows of floats ``rows`` (a 4×4 pose's ``tolist()``) are a rigid
     transform by the test of `rigid_transform_defect` (finite, max|RRᵀ − I| and |det R − 1|
     within ``tolerance``, last row [0, 0, 0, 1]), which says what is wrong when it is not.
     Plain arithmetic on one list: the per-cycle check of a servo target."""
     r0, r1, r2, r3 = rows
-    t = sum(r3, sum(r2, sum(r1, sum(r0))))
-    if not (t - t == 0.0 and r3 == [0.0, 0.0, 0.0, 1.0]):
+    if not (finite_rows(rows) and r3 == [0.0, 0.0, 0.0, 1.0]):
         return False
     a0, a1, a2 = r0[0], r0[1], r0[2]
     b0, b1, b2 = r1[0], r1[1], r1[2]

@@ -54,6 +54,15 @@ def _stop(v: float, a: float, brake: float, jerk: float) -> float:
     return float(stopping_distance(v, a, brake, jerk, exact_when_braking=True))
 
 
+def stopping_progress(v: float, a: float, brake: float, jerk: float, dt: float) -> float:
+    """The progress a motion at speed ``v`` ≥ 0 and acceleration ``a`` needs to come to rest
+    [progress units]: one period ``dt`` at ``v``, then the jerk-limited stop braking at
+    ``brake`` with jerk ``jerk`` (0 at rest or without a braking bound yet)."""
+    if not (v > 0.0 and brake > 0.0 and jerk > 0.0):
+        return 0.0
+    return v * dt + _stop(v, a, brake, jerk)
+
+
 class Progress:
     """A progress s ∈ [0, L] toward rest at L, one jerk-limited period at a time within the
     bounds of `ProgressLimits` (see `advance`). Owns (s, ṡ, s̈)."""
@@ -84,9 +93,7 @@ class Progress:
         speed, then the jerk-limited stop the last period planned (its nominal braking, not a
         late stop's harder one: the distance a stop planned now needs; 0 at rest or before
         the first period)."""
-        if not (self.sd > 0.0 and self._nominal > 0.0 and self._jerk > 0.0):
-            return 0.0
-        return self.sd * dt + _stop(self.sd, self.sdd, self._nominal, self._jerk)
+        return stopping_progress(self.sd, self.sdd, self._nominal, self._jerk, dt)
 
     def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0, lead: float = 0.0) -> float:
         """One period of the progress toward rest at L within ``caps`` (the speed bound

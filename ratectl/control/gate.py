@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
-from ..spatial import is_rigid_rows, rigid_transform_defect
+from ..spatial import finite_rows, is_rigid_rows, rigid_transform_defect
 from .cycle import _finite_sum, _same_rotation
 
 __all__ = ["Gate"]
@@ -30,14 +30,6 @@ def _checked_stamp(stamp) -> float:
         raise InputError(f"stamp must be a time in seconds on the controller clock ctrl.time, got {stamp!r}",
                          argument="stamp", value=stamp)
     return float(stamp)
-
-
-def _finite_rows(rows: list[list[float]]) -> bool:
-    """`_finite_sum` of a 4×4 pose given as its rows of floats (the same sum, in the same
-    order)."""
-    r0, r1, r2, r3 = rows
-    t = sum(r3, sum(r2, sum(r1, sum(r0))))
-    return t - t == 0.0
 
 
 def _float_array(value, name: str, what: str) -> np.ndarray:
@@ -123,7 +115,7 @@ class Gate:
         rows = None
         if not _finite_sum(q):
             bad = "q"
-        elif target is not None and not _finite_rows(rows := target.tolist()):
+        elif target is not None and not finite_rows(rows := target.tolist()):
             bad = "target"
         elif twist is not None and not _finite_sum(twist):
             bad = "twist"

@@ -4,9 +4,11 @@
 
 c changes within the acceleration share of `ProgressLimits` and never exceeds its bounds
 (with ξ as the direction, one unit of progress per second is the full twist), so the tool's
-velocity is always a non-negative multiple of the command: near a singularity or a joint
-limit the arm slows down and stops along ξ, never sideways, and a command that leads away
-moves at once.
+velocity is always a multiple of the command: near a singularity or a joint limit the arm
+slows down and stops along ξ, never sideways, and a command that leads away moves at once.
+With smoothing, a stop before a singularity is planned as the approach plans its own
+(`Progress`); one planned too late may take c below 0 for a moment (back along ξ) on its
+way to rest, never a jump the filter could not follow.
 
 `JogStage` is the controller's jog stage: it owns the `Jog`, solves the direction
 (`ProgressStage`) and reports the bound that holds the progress.
@@ -23,8 +25,7 @@ import numpy as np
 
 from ..arrays import shared_zeros
 from ..errors import RatectlError, SingularityError
-from ..model.limits import stopping_distance
-from .approach import Progress
+from .approach import Progress, stopping_progress
 from .cycle import Cycle, Motion, _finite_sum, _same
 from .progress import ProgressCaps
 from .smoothing import SpeedProfile
@@ -39,7 +40,8 @@ __all__ = ["Jog", "JogStage"]
 
 class Jog:
     """The fraction c ∈ [0, 1] of the commanded twist the tool moves at (see the module
-    docstring). Owns c and the last commanded twist."""
+    docstring; below 0 only for the dip of a smoothed stop planned too late). Owns c, ċ, the
+    last commanded twist and a stop planned before a singularity."""
 
     def __init__(self) -> None:
         self.reset()
@@ -80,10 +82,7 @@ class Jog:
         jerk-limited stop at the last period's bounds on ċ and c̈ (0 at rest or before the
         first period)."""
         accel, jerk = self._bounds
-        if not (self.c > 0.0 and accel > 0.0):
-            return 0.0
-        return self.c * dt + float(stopping_distance(self.c, self.cd, accel, jerk if jerk > 0.0 else 1e12,
-                                                     exact_when_braking=True))
+        return stopping_progress(self.c, self.cd, accel, jerk, dt)
 
     def advance(self, caps: ProgressCaps, dt: float) -> float:
         """c for the coming period: toward min(1, the speed bound), changed by at most the

@@ -23,10 +23,15 @@ measured q, for the coming period:
   motion lowers it. Its rate along the direction, σ′ = dσ_min/ds, comes from a finite
   difference of σ_min one small step ahead along w; the remaining progress before σ_min
   reaches ``stop_sigma`` is estimated as Δs = (σ_min − stop)/(2|σ′|) (half the first-order
-  estimate: σ_min falls like √(distance) at a boundary singularity). The arm therefore
+  estimate: σ_min falls like √(distance) at a boundary singularity). σ_min is also
+  evaluated at half and all of 1.5× the motion's stopping distance ahead (`caps`'s
+  ``ahead``): above ``stop_sigma`` the room ends where the chord crosses it, below it at
+  the peak of σ_min a motion rising away would pass (`_room_ahead`). The arm therefore
   stops *before* the lost direction, with the direction of the tool motion unchanged, and
-  moves away at once (σ′ > 0 is never bounded). A direction that stays in the range of J
-  at the singular configuration is not bounded by this (vmax bounds it as everywhere).
+  moves away at once (a rise of σ_min is never bounded). A direction that stays in the
+  range of J at the singular configuration is not bounded by this (vmax bounds it as
+  everywhere). A stop before a singularity is planned at the joints' bounds at the block
+  (``room_accel``, ``room_jerk``), where |w| is larger.
 
 The position and singularity bounds come in two forms: ``room``, the progress left before
 the nearest block (the servo's approach plans its stop there), and a speed bound, the
