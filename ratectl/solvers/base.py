@@ -570,10 +570,12 @@ def validated_solve_generic(solver: Any, J: np.ndarray, xi: np.ndarray, *, limit
     return solver.solve(J, xi, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
 
 
-def thin_svd(J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def thin_svd(J: np.ndarray, *, full: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Thin SVD J = U diag(s) Vᵀ: (U (m, k), s (k,) descending, Vᵀ (k, n)), k = min(m, n),
-    through LAPACK's dgesdd; raises ``np.linalg.LinAlgError`` if it does not converge."""
-    u, s, vt, info = _dgesdd(J, compute_uv=1, full_matrices=0)
+    through LAPACK's dgesdd; with ``full``, the full factors U (m, m) and Vᵀ (n, n) (a null
+    space's basis among the rows of Vᵀ). Raises ``np.linalg.LinAlgError`` if it does not
+    converge."""
+    u, s, vt, info = _dgesdd(J, compute_uv=1, full_matrices=1 if full else 0)
     if info != 0:
         raise np.linalg.LinAlgError(f"SVD did not converge (dgesdd info {info})")
     return u, s, vt

@@ -13,7 +13,6 @@ from numpy.typing import ArrayLike
 from ..errors import InputError, SingularityError
 from .base import (
     Solver,
-    _dgesdd,
     _dot,
     _dposv,
     _dpotrf,
@@ -22,6 +21,7 @@ from .base import (
     _positive,
     exact_direction_floor,
     min_norm_direction,
+    svd_values,
     thin_svd,
 )
 
@@ -354,7 +354,7 @@ class SDLS(Solver):
         qd = self._clamp((phi * np.minimum(scale, 1.0)[:, None]).sum(axis=0), self.gamma_max)
         full = k == min(m, n)
         if Js is not J:  # σ_min reported for the unscaled J
-            sv = _dgesdd(J, compute_uv=0)[1]
+            sv = svd_values(J)
             smin = float(sv[-1]) if full and sv.size else 0.0
         else:
             smin = float(s[-1]) if full and k else 0.0

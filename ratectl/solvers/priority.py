@@ -50,12 +50,11 @@ from scipy.linalg import lapack as _lapack
 from ..arrays import read_only, shared_zeros
 from ..errors import InputError, SolverError
 from ..model.limits import Limits
-from .base import _positive
+from .base import _positive, thin_svd
 from .qp.active_set import qp_via_dual
 from .qp.bounds import _BIG, _BoundCache, _box, _vec
 
 _dposv = _lapack.dposv
-_dgesdd = _lapack.dgesdd
 _dgeqrf = _lapack.dgeqrf
 _dorgqr = _lapack.dorgqr
 _dtrtri = _lapack.dtrtri
@@ -722,9 +721,7 @@ def _null_space(M: np.ndarray, tolerance: float) -> np.ndarray:
     Z = _null_space_qr(M, tolerance)
     if Z is not None:
         return Z
-    _, s, vt, info = _dgesdd(M, compute_uv=1, full_matrices=1)
-    if info != 0:  # pragma: no cover - LAPACK's own failure: numpy's SVD (raises LinAlgError)
-        _, s, vt = np.linalg.svd(M, full_matrices=True)
+    _, s, vt = thin_svd(M, full=True)
     tol = tolerance * max(1.0, float(s[0]) if s.size else 0.0)
     rank = int(np.count_nonzero(s > tol))
     return vt[rank:].T
