@@ -137,9 +137,7 @@ class Progress:
         brake = max(nominal, self._brake) if self.sdd < 0.0 else nominal
         if self.sd > vmax:  # above a speed bound: its braking law assumes the whole bound
             brake = max(brake, amax)
-        # a late stop before a singularity's block (below) that ended its period below rest
-        # goes on to rest the same way
-        overrun = self.blocked and caps.room_by == "singularity" and self.sd < 0.0
+        overrun = False
         if v_end <= 0.0 and self.sd > 0.0 and _stop_bound(self.sd, self.sdd, brake, jmax) > x \
                 and _stop(self.sd, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
             lo, hi = brake, max(_URGENT * amax, brake)
@@ -148,9 +146,7 @@ class Progress:
                 # too late to stop before a singularity's block (its σ_min of the stop, or the
                 # peak of σ_min below it): the stop runs on along the direction, a little
                 # past it (σ_min stays above 0 there), never as a jump to rest, which no
-                # jerk-limited arm follows (its joints would carry on off the direction);
-                # from a state whose jerk-limited stop dips below rest, the speed dips and
-                # comes back (the arm moves back along the direction, never off it)
+                # jerk-limited arm follows (its joints would carry on off the direction)
                 overrun = self.blocked and caps.room_by == "singularity"
             else:
                 for _ in range(12):
@@ -163,8 +159,14 @@ class Progress:
             if stopper is None:
                 stopper = self._stopper = SpeedProfile(dt)
             brake = max(brake, abs(self.sdd))
+            # braking harder than the jerk bound lets the speed end at rest (a stop from
+            # speed v at deceleration a needs the jerk a²/2v at least, or the speed would dip
+            # below rest: back along the direction, by a²/2j, which a small jerk bound near a
+            # singularity makes as large as the speed itself)
+            if self.sdd < 0.0:
+                jmax = max(jmax, self.sdd * self.sdd / (2.0 * self.sd) * (1.0 + 1e-9))
             vel = stopper.step(self.sd, self.sdd, 0.0, amax=brake, jmax=jmax, dt=dt)
-            if vel is not None and abs(vel[0]) < 1e-12 and abs(vel[1]) < 1e-9:
+            if vel is not None and vel[0] <= 1e-12:
                 vel = (0.0, 0.0)
             # (the distance of one period of constant jerk from its two end states)
             nxt = None if vel is None else (dt * (0.5 * (self.sd + vel[0]) + dt * (self.sdd - vel[1]) / 12.0),
@@ -188,7 +190,7 @@ class Progress:
             dx = max(x, 0.0)
             self.s, self.sd, self.sdd = self.s + dx, 0.0, 0.0
         else:
-            self.s, self.sd, self.sdd = self.s + dx, sd1 if overrun else max(sd1, 0.0), sdd1
+            self.s, self.sd, self.sdd = self.s + dx, max(sd1, 0.0), sdd1
         return dx / dt
 
 

@@ -7,8 +7,8 @@ c changes within the acceleration share of `ProgressLimits` and never exceeds it
 velocity is always a multiple of the command: near a singularity or a joint limit the arm
 slows down and stops along ξ, never sideways, and a command that leads away moves at once.
 With smoothing, a stop before a singularity is planned as the approach plans its own
-(`Progress`); one planned too late may take c below 0 for a moment (back along ξ) on its
-way to rest, never a jump the filter could not follow.
+(`Progress`); one planned too late brakes harder than its jerk share to end at rest, never
+with a jump the filter could not follow.
 
 `JogStage` is the controller's jog stage: it owns the `Jog`, solves the direction
 (`ProgressStage`) and reports the bound that holds the progress.
@@ -40,8 +40,8 @@ __all__ = ["Jog", "JogStage"]
 
 class Jog:
     """The fraction c ∈ [0, 1] of the commanded twist the tool moves at (see the module
-    docstring; below 0 only for the dip of a smoothed stop planned too late). Owns c, ċ, the
-    last commanded twist and a stop planned before a singularity."""
+    docstring). Owns c, ċ, the last commanded twist and a stop planned before a
+    singularity."""
 
     def __init__(self) -> None:
         self.reset()
@@ -60,7 +60,7 @@ class Jog:
     def start(self, twist: np.ndarray) -> None:
         """A new commanded twist: c continues from the previous motion projected on it."""
         prev = self.twist
-        if prev is not None and self.c != 0.0 and not _same(prev, twist):
+        if prev is not None and self.c > 0.0 and not _same(prev, twist):
             self._block = None  # (a stop planned along the previous twist)
             nn = float(twist @ twist)
             ratio = float(prev @ twist) / nn if nn > 0.0 else 0.0
@@ -125,8 +125,7 @@ class Jog:
             plan.sd, plan.sdd = self.c, self.cd
             plan.advance(replace(caps, free_speed=min(1.0, caps.free_speed), room=max(room, 0.0),
                                  room_by="singularity"), dt)
-            # (below 0 only for the dip of a late stop, `Progress.advance`)
-            self.c, self.cd = (plan.sd, plan.sdd) if plan.sd != 0.0 else (0.0, 0.0)
+            self.c, self.cd = (plan.sd, plan.sdd) if plan.sd > 0.0 else (0.0, 0.0)
             if self.c == 0.0:
                 self._block = None
             return self.c
@@ -232,8 +231,8 @@ class JogStage:
                 caps.reason = ("stopping before a singularity: the commanded direction lowers σ_min "
                                f"(σ_min = {caps.sigma:.3g}) on its way")
             at_bound = True
-        self._progress.flags(cyc, q, caps, c != 0.0, at_bound)
-        if c_prev < c < min(1.0, caps.speed) * (1.0 - 1e-12) and c > 0.0:
+        self._progress.flags(cyc, q, caps, c > 0.0, at_bound)
+        if c_prev < c < min(1.0, caps.speed) * (1.0 - 1e-12):
             cyc.flags.append("acceleration-limited")
             cyc.reasons.append(f"accelerating along the commanded twist within amax ({c:.3g}× the twist)")
             cyc.active.append("acceleration")
