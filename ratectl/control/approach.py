@@ -88,11 +88,14 @@ class Progress:
         self.end_accel = math.inf  # the acceleration bound at the end of the line, when known
         self.end_speed = 0.0  # the speed at which the progress arrives at L (a target that moves)
 
-    def stopping_progress(self, dt: float) -> float:
+    def stopping_progress(self, dt: float, accel: float | None = None, jerk: float | None = None) -> float:
         """The progress this motion needs to come to rest [progress units]: one period at its
         speed, then the jerk-limited stop the last period planned (its nominal braking, not a
         late stop's harder one: the distance a stop planned now needs; 0 at rest or before
-        the first period)."""
+        the first period), or, given the bounds ``accel`` on |s̈| and ``jerk`` on |s⃛| (those
+        at a block), the stop `advance` would plan within them."""
+        if accel is not None and jerk is not None:
+            return stopping_progress(self.sd, self.sdd, _PLANNED * min(accel, self.end_accel), jerk, dt)
         return stopping_progress(self.sd, self.sdd, self._nominal, self._jerk, dt)
 
     def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0, lead: float = 0.0) -> float:

@@ -77,11 +77,12 @@ class Jog:
         """A stop planned before a singularity is under way (smoothed)."""
         return self._block is not None
 
-    def stopping_progress(self, dt: float) -> float:
+    def stopping_progress(self, dt: float, accel: float | None = None, jerk: float | None = None) -> float:
         """The progress the jog needs to come to rest [twist·s]: one period at c, then the
         jerk-limited stop at the last period's bounds on ċ and c̈ (0 at rest or before the
-        first period)."""
-        accel, jerk = self._bounds
+        first period), or within the given bounds ``accel`` and ``jerk`` (those at a block)."""
+        if accel is None or jerk is None:
+            accel, jerk = self._bounds
         return stopping_progress(self.c, self.cd, accel, jerk, dt)
 
     def advance(self, caps: ProgressCaps, dt: float) -> float:
@@ -202,7 +203,7 @@ class JogStage:
         w_prime = (w - wp) / (jog.c * dt) if (wp is not None and jog.c > 0.0) else None
         pr = self._progress
         caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(sig_w), w_prime=w_prime,
-                              q_lead=self._m.q_lead, ahead=lambda: jog.stopping_progress(dt),
+                              q_lead=self._m.q_lead, ahead=lambda a, j: jog.stopping_progress(dt, a, j),
                               exact=lambda q2, share=True: pr.exact_direction(q2, twist, (q, J), share=share))
         c_prev = jog.c
         c = jog.advance_smoothly(caps, dt) if self._smoothed else jog.advance(caps, dt)

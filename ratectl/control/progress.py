@@ -23,15 +23,17 @@ measured q, for the coming period:
   motion lowers it. Its rate along the direction, σ′ = dσ_min/ds, comes from a finite
   difference of σ_min one small step ahead along w; the remaining progress before σ_min
   reaches ``stop_sigma`` is estimated as Δs = (σ_min − stop)/(2|σ′|) (half the first-order
-  estimate: σ_min falls like √(distance) at a boundary singularity). σ_min is also
-  evaluated at half and all of 1.5× the motion's stopping distance ahead (`caps`'s
-  ``ahead``): above ``stop_sigma`` the room ends where the chord crosses it, below it at
-  the peak of σ_min a motion rising away would pass (`_room_ahead`). The arm therefore
-  stops *before* the lost direction, with the direction of the tool motion unchanged, and
-  moves away at once (a rise of σ_min is never bounded). A direction that stays in the
-  range of J at the singular configuration is not bounded by this (vmax bounds it as
-  everywhere). A stop before a singularity is planned at the joints' bounds at the block
-  (``room_accel``, ``room_jerk``), where |w| is larger.
+  estimate: σ_min falls like √(distance) at a boundary singularity). Near a singularity
+  the direction's joint path is also followed ahead along the exact w = J⁺d, over 1.5×
+  the distance a stop at the bounds of a block needs (`caps`'s ``ahead``): the block is
+  the first point where σ_min is at most ``stop_sigma`` with the direction lost there, or,
+  below ``stop_sigma``, the peak of σ_min a motion rising away would pass
+  (`_room_ahead`); vmax on the way bounds ṡ now. The arm therefore stops *before* the
+  lost direction, with the direction of the tool motion unchanged, and moves away at once
+  (a rise of σ_min is never bounded). A direction that stays in the range of J at the
+  singular configuration is not bounded by this (vmax bounds it as everywhere). A stop
+  before a singularity is planned at the joints' bounds at the block (``room_accel``,
+  ``room_jerk``), where |w| is larger.
 
 The position and singularity bounds come in two forms: ``room``, the progress left before
 the nearest block (the servo's approach plans its stop there), and a speed bound, the
@@ -60,6 +62,10 @@ _TINY_W = 1e-12  # a joint with |w_i| below this does not move along the directi
 _LIMIT_MARGIN = 1e-3  # [rad or m] a jog's speed bound stops this far inside a joint's position limit
 _VMAX_HEADROOM = 0.05  # the share of vmax a smoothed progress leaves to its filter
 _LOST = 0.2  # share of |J⁺d|² in the weakest direction above which a direction is being lost
+_AHEAD_STEPS = 4  # at most this many steps of the singularity look-ahead along the direction's joint path
+_FAR_ABOVE = 2.0  # σ_min/stop above which a slope check can rule the look-ahead out
+_AHEAD_JOINT_STEP = 0.05  # [rad or m] a look-ahead step moves a joint at most this far (w at q)
+_PLANNED_BRAKE = 0.5  # the share of the acceleration bound a stop ahead is assumed to brake at
 _SIGMA_NOISE = 1e-10  # a change of σ_min over the look-ahead step below this is rounding
 _UNBOUNDED = 1e9  # an absent bound on the progress (Ruckig needs finite limits)
 _JERK_BIG = 1e12  # an unbounded progress jerk in the jerk-limited braking formula
@@ -109,6 +115,19 @@ class ProgressCaps:
     room_accel: float = math.inf
     room_jerk: float = math.inf
     room_peak: bool = False
+
+
+@dataclass(slots=True)
+class _Ahead:
+    """What the singularity look-ahead found (`ProgressLimits._room_ahead`): the room before
+    the block (inf: none within reach), whether it is a peak of σ_min, the bounds on |s̈|
+    and |s⃛| at the block (inf: no block), and the bound on ṡ now from vmax on the way."""
+
+    room: float = math.inf
+    peak: bool = False
+    accel: float = math.inf
+    jerk: float = math.inf
+    speed: float = math.inf
 
 
 class ProgressLimits:
@@ -190,15 +209,16 @@ class ProgressLimits:
                 its velocity command still gets there once the command stops, so a joint's
                 room to its limit is measured from whichever of q and q_lead is nearer the
                 limit.
-            exact: ``f(q, share=True) -> (σ_min, share)``: σ_min(J) at any q and the share
-                of the direction's exact joint speed |J⁺d|² in the weakest direction (NaN
-                with ``share=False``: σ_min alone), for the singularity look-ahead (None: no
-                singularity bound).
-            ahead: ``f() -> float``, the progress the motion needs to come to rest from its
-                present state [progress units] (0: at rest or unknown), called only near a
-                singularity: σ_min is also evaluated that far ahead, so that a σ_min that
-                falls faster on the way than its slope at q says is stopped for in time
-                (None: not evaluated).
+            exact: ``f(q, share=True) -> (σ_min, share, w)``: σ_min(J) at any q, the share
+                of the direction's exact joint speed |J⁺d|² in the weakest direction and that
+                joint velocity per unit progress w = J⁺d (NaN and None with ``share=False``:
+                σ_min alone), for the singularity look-ahead (None: no singularity bound).
+            ahead: ``f(accel, jerk) -> float``, the progress the motion needs to come to rest
+                from its present state within the bounds ``accel`` on |s̈| and ``jerk`` on |s⃛|
+                [progress units] (0 at rest), called only near a singularity with the bounds
+                a block ahead could have: σ_min is also evaluated about that far ahead, so
+                that a σ_min that falls faster on the way than its slope at q says, or a
+                direction not yet lost here, is stopped for in time (None: not evaluated).
         """
         wl = w.tolist()
         inf = math.inf
@@ -279,41 +299,88 @@ class ProgressLimits:
             caps.room, caps.room_by = p_room, "position"
             caps.room_reason = self._limit_reason(w, p_joint, at=p_room <= 0.0)
         if exact is not None and sigma is not None and sigma < self.watch_sigma:
-            self._singularity(caps, q, w, exact, w_prime, ahead)
+            self._singularity(caps, q, w, exact, ahead)
         return caps
 
-    def _room_ahead(self, q, w, w_prime, exact, sigma: float, D: float) -> float:
-        """The room before a singularity's block seen within the progress ``D`` ahead (a
-        little more than the motion needs to come to rest), where the slope of σ_min at q
-        says nothing yet (past a maximum of σ_min, or before it): σ_min at D/2 and D on the
-        joint path's second-order estimate q + w·x + w′·x²/2.
+    def _bounds_at(self, w: np.ndarray) -> tuple[float, float, float]:
+        """The bounds on ṡ (vmax, with a smoothed command's headroom), |s̈| and |s⃛| (the
+        progress's shares of amax and jmax) for motion q̇ = ṡ w."""
+        speed = accel = jerk = math.inf
+        for vc, a, j, wi in zip(self._l_vcap, self._l_share_a, self._l_share_j, w.tolist(), strict=True):
+            awi = wi if wi >= 0.0 else -wi
+            if awi > _TINY_W:
+                speed, accel, jerk = min(speed, vc / awi), min(accel, a / awi), min(jerk, j / awi)
+        return speed, accel, jerk
 
-        * Above the stop, a motion may lower σ_min down to it: the room ends where the chord
-          from here crosses the stop (toward a singularity σ_min falls ever faster, its curve
-          is concave, and the chord crosses first).
-        * Below it, a motion rising away from the singularity may not end lower than it is:
-          where σ_min falls between D/2 and D, the motion stops at the peak of the parabola
-          through the three values (a rise that goes on, however it bends, never stops it).
+    def _room_ahead(self, q, w, exact, sigma: float, share: float, D: float) -> _Ahead:
+        """What lies within the progress ``D`` ahead (a little more than the motion needs to
+        come to rest at the bounds of a block) near a singularity, where the slope of σ_min
+        at q says nothing yet (past a maximum of σ_min, before it, or for a direction not
+        yet lost here). The joint path of the direction is followed in up to `_AHEAD_STEPS` steps
+        (as few as move no joint more than `_AHEAD_JOINT_STEP` by w at q), each along the
+        exact w = J⁺d where it starts (σ_min, the share and w from one SVD
+        per step). The block is the first point where σ_min is at most ``stop_sigma`` with
+        the direction lost there (its share of |J⁺d|² above 0.2; the share grows as σ_min
+        falls toward a singularity whose lost direction the motion heads into):
 
-        Returns inf when nothing within D blocks."""
-        def ahead(x: float) -> float:
-            q_x = q + w * x if w_prime is None else q + (w + w_prime * (0.5 * x)) * x
-            return exact(q_x, share=False)[0]
+        * where σ_min falls through the stop with the direction lost, at the crossing
+          (linear between the two steps around it);
+        * where the share rises through 0.2 below the stop, at that crossing;
+        * below the stop with the direction lost here, a motion rising away from the
+          singularity may not end lower than it is: where σ_min falls after rising, the
+          motion stops at the peak (the parabola through the three steps around it; a rise
+          that goes on, however it bends, never stops it).
 
-        m = 0.5 * D
-        s_mid, s_far = ahead(m), ahead(D)
+        On the way, vmax bounds ṡ at each step by vmax/|w|; the speed from which the motion
+        still slows to that bound by then, braking at half its share of amax with its share
+        of jmax, bounds ṡ now (|w| grows toward a singularity faster than a jerk-limited
+        progress slows once the bound binds)."""
         stop = self.stop_sigma
-        if sigma > stop:
-            if s_mid < stop:
-                return m * (sigma - stop) / (sigma - s_mid)
-            if s_far < stop:
-                return m + m * (s_mid - stop) / (s_mid - s_far)
-            return math.inf
-        if not s_far < s_mid:
-            return math.inf
-        curv = (sigma - 2.0 * s_mid + s_far) / (2.0 * m * m)
-        slope = (s_mid - sigma) / m - curv * m
-        return min(max(-slope / (2.0 * curv), 0.0), D) if curv < 0.0 else 0.0
+        rising = sigma <= stop and share > _LOST  # only a rise away from the singularity is free
+        w_inf = max(abs(x) for x in w.tolist())
+        steps = min(_AHEAD_STEPS, max(1, math.ceil(w_inf * D / _AHEAD_JOINT_STEP)))
+        dx = D / steps
+        xs, ss, hs = [0.0], [sigma], [share]
+        q_k, w_k = q, w
+        out = _Ahead()
+        for k in range(1, steps + 1):
+            q_k = q_k + w_k * dx
+            s_k, h_k, w_next = exact(q_k)
+            x_k = k * dx
+            if w_next is not None:
+                v_k, a_k, j_k = self._bounds_at(w_next)
+                if v_k < math.inf:
+                    slow = (braking_speed_scalar(x_k, _PLANNED_BRAKE * a_k, j_k) if a_k < math.inf
+                            else math.inf)
+                    out.speed = min(out.speed, math.sqrt(v_k * v_k + slow * slow))
+                out.accel, out.jerk = a_k, j_k  # (the bounds at the block, once it is found)
+            s_prev, h_prev, x_prev = ss[-1], hs[-1], xs[-1]
+            if rising:
+                if s_k < s_prev:  # falls after rising: stop at the peak
+                    out.peak = True
+                    if k == 1:
+                        out.room = 0.0
+                        return out
+                    x0, s0 = xs[-2], ss[-2]
+                    curv = (s0 - 2.0 * s_prev + s_k) / (2.0 * dx * dx)
+                    slope = (s_prev - s0) / dx - curv * dx  # at x0
+                    top = x0 + (-slope / (2.0 * curv) if curv < 0.0 else dx)
+                    out.room = min(max(top, x0), x_k)
+                    return out
+            elif s_k <= stop and h_k > _LOST:
+                if s_prev > stop:
+                    out.room = x_prev + dx * (s_prev - stop) / (s_prev - s_k)
+                else:
+                    out.room = x_prev + dx * max(_LOST - h_prev, 0.0) / (h_k - h_prev)
+                return out
+            if w_next is None:
+                break
+            xs.append(x_k)
+            ss.append(s_k)
+            hs.append(h_k)
+            w_k = w_next
+        out.accel = out.jerk = math.inf  # (no block within D)
+        return out
 
     def _limit_reason(self, w: np.ndarray, i: int, *, at: bool) -> str:
         """The sentence for joint ``i`` moving toward the limit on the side of w_i."""
@@ -321,29 +388,50 @@ class ProgressLimits:
         return (f"joint {self.name(i)} is at its {side} limit" if at
                 else f"joint {self.name(i)} braking toward its {side} limit")
 
-    def _singularity(self, caps: ProgressCaps, q, w, exact, w_prime=None, ahead=None) -> None:
+    def _singularity(self, caps: ProgressCaps, q, w, exact, ahead=None) -> None:
         """The singularity bound (see the module docstring) applied to ``caps``: only for a
-        direction that is being lost, most of whose exact joint speed |J⁺d|² goes into the
-        weakest direction of J (share above 0.2: as σ_min → 0 it needs joint speeds ∝
-        1/σ_min); a direction that stays in the range of J at the singular configuration (a
-        target on the smooth branch, q5 → 0 on a UR wrist) needs bounded joint speeds and
-        is not blocked (vmax bounds it as everywhere)."""
-        sigma, share = exact(q)
+        direction that is being lost, here or within the look-ahead, most of whose exact
+        joint speed |J⁺d|² goes into the weakest direction of J (share above 0.2: as σ_min → 0
+        it needs joint speeds ∝ 1/σ_min); a direction that stays in the range of J at the
+        singular configuration (a target on the smooth branch, q5 → 0 on a UR wrist) needs
+        bounded joint speeds and is not blocked (vmax bounds it as everywhere, and on the way
+        ahead)."""
+        sigma, share, _ = exact(q)
         caps.sigma = sigma
-        if not share > _LOST:
-            return
         norm = float(np.sqrt(w @ w))
         if not norm > 0.0:
             return
         ds = 1e-4 / norm  # a 1e-4 rad (or m) joint step along w
-        sigma_ahead, _ = exact(q + w * ds, share=False)
-        drop = sigma - sigma_ahead
         room = math.inf
-        if drop > _SIGMA_NOISE * (1.0 + sigma):  # (else moving away from it, or along it)
-            room = (sigma - self.stop_sigma) / (2.0 * drop / ds)
-        D = ahead() if ahead is not None and room > 0.0 else 0.0
-        if D > ds:
-            room = min(room, self._room_ahead(q, w, w_prime, exact, sigma, 1.5 * D))
+        slope = math.nan
+        if share > _LOST:  # being lost here: the slope of σ_min at q
+            sigma_ahead = exact(q + w * ds, share=False)[0]
+            drop = sigma - sigma_ahead
+            slope = drop / ds
+            if drop > _SIGMA_NOISE * (1.0 + sigma):  # (else moving away from it, or along it)
+                room = (sigma - self.stop_sigma) / (2.0 * slope)
+        # the look-ahead reaches as far as a stop at the bounds of a block would need: |w| is
+        # at most σ_min/stop times larger there (a lost direction's weakest component grows
+        # like 1/σ_min), and the bounds on s̈ and s⃛ that much smaller; well above the stop it
+        # is left out for a direction not lost here, or lost but with a slope that would not
+        # lower σ_min to the stop within four times the look-ahead
+        reach = max(sigma / self.stop_sigma, 1.0)
+        far_above = sigma > _FAR_ABOVE * self.stop_sigma and not (share > _LOST and slope > 0.0)
+        D = (ahead(caps.accel / reach, caps.jerk / reach)
+             if ahead is not None and room > 0.0 and not far_above else 0.0)
+        if sigma > _FAR_ABOVE * self.stop_sigma and sigma - 4.0 * max(slope, 0.0) * 1.5 * D > self.stop_sigma:
+            far_above = True
+        peak = False
+        block_bounds = None
+        if D > ds and not far_above:
+            found = self._room_ahead(q, w, exact, sigma, share, 1.5 * D)
+            if found.speed < caps.speed:  # vmax on the way
+                caps.speed = found.speed
+                caps.binding, caps.joint, caps.reason, caps.blocked_by = "velocity", -1, "", ""
+            caps.free_speed = min(caps.free_speed, found.speed)
+            if found.room < room:
+                room, peak = found.room, found.peak
+                block_bounds = (min(caps.accel, found.accel), min(caps.jerk, found.jerk))
         if room == math.inf:
             return  # moving away from the singularity, or along it: never bounded
         if room <= 0.0:
@@ -352,24 +440,28 @@ class ProgressLimits:
         elif sigma > self.stop_sigma:
             reason = (f"approaching a singularity (σ_min = {sigma:.3g}, stops at {self.stop_sigma:.3g}): "
                       "slowed along the commanded direction")
+        elif not peak:
+            reason = (f"approaching a singularity (σ_min = {sigma:.3g} ≤ {self.stop_sigma:.3g}): the "
+                      "commanded direction lowers it and is being lost ahead: slowed to stop before")
         else:
             reason = (f"approaching a singularity (σ_min = {sigma:.3g} ≤ {self.stop_sigma:.3g}): the "
                       "commanded direction rises away from it, then lowers σ_min again: slowed to stop "
                       "at its peak")
-        # at the block the joint speed per unit progress is larger: the share of |w|² in the
-        # weakest direction grows like 1/σ_min² (the rest stays), so |w| grows by
-        # ρ = √((1 − share) + share·(σ_min/stop)²) and the bounds on s̈ and s⃛ shrink by 1/ρ
-        # there; a stop planned at the bounds at q would ask the joints for up to ρ× their
-        # share of amax and jmax as it ends (a smoothed command cannot follow: the tool
-        # leaves its line)
-        ratio = max(sigma / self.stop_sigma, 1.0)
-        rho = math.sqrt(max(1.0 - share, 0.0) + share * ratio * ratio)
-        accel_block, jerk_block = caps.accel / rho, caps.jerk / rho
+        # at the block the joint speed per unit progress is larger: the look-ahead's w there,
+        # or, for a block from the slope at q, the share of |w|² in the weakest direction
+        # grown like 1/σ_min² (the rest stays): |w| grows by ρ = √((1 − share) + share·
+        # (σ_min/stop)²) and the bounds on s̈ and s⃛ shrink by 1/ρ there; a stop planned at
+        # the bounds at q would ask the joints for up to ρ× their share of amax and jmax as it
+        # ends (a smoothed command cannot follow: the tool leaves its line)
+        if block_bounds is None:
+            rho = math.sqrt(max(1.0 - share, 0.0) + share * reach * reach)
+            block_bounds = (caps.accel / rho, caps.jerk / rho)
+        accel_block, jerk_block = block_bounds
         if max(room, 0.0) < caps.room:  # the room ahead (an approach plans its stop there)
             # (said of the block itself: whether the arm still moves is the status's to say)
             caps.room, caps.room_by = max(room, 0.0), "singularity"
             caps.room_accel, caps.room_jerk = accel_block, jerk_block
-            caps.room_peak = 0.0 < room and sigma <= self.stop_sigma
+            caps.room_peak = peak and 0.0 < room
             caps.room_reason = (f"a singularity whose lost direction the line heads into (σ_min = "
                                 f"{sigma:.3g}; the motion stops at {self.stop_sigma:.3g})")
         # the speed bound (a jog): the jerk-limited stop within that room at the acceleration

@@ -66,24 +66,26 @@ class ProgressStage:
                            sigma_min=sigma, method=str(getattr(self.solver, "method", "solver")))
 
     def exact_direction(self, q: np.ndarray, d: np.ndarray, J_at: tuple | None = None, *,
-                        share: bool = True) -> tuple[float, float]:
-        """(σ_min, share) at ``q`` from one thin SVD J = U S Vᵀ (`thin_svd`): σ_min(J), and
+                        share: bool = True) -> tuple[float, float, np.ndarray | None]:
+        """(σ_min, share, w) at ``q`` from one thin SVD J = U S Vᵀ (`thin_svd`): σ_min(J),
         the share of the exact joint speed |J⁺d|² = Σ (uᵢ·d / σᵢ)² that goes into the
         weakest direction (the singularity look-ahead of `ProgressLimits`: is ``d`` being
-        lost?). ``J_at`` = (q₀, J(q₀)): the cycle's own Jacobian, used when ``q`` is q₀.
-        ``share=False``: σ_min alone (singular values without vectors), share NaN."""
+        lost?), and that exact joint velocity per unit progress w = J⁺d = V (Uᵀd / S) (None
+        where J has lost rank). ``J_at`` = (q₀, J(q₀)): the cycle's own Jacobian, used when
+        ``q`` is q₀. ``share=False``: σ_min alone (singular values without vectors), share
+        NaN and w None."""
         J = J_at[1] if J_at is not None and q is J_at[0] else self.chain.jacobian(q)
         if J.shape[1] < 6:
-            return 0.0, 1.0
+            return 0.0, 1.0, None
         if not share:
             S = svd_values(J)
-            return (float(S[-1]) if S[-1] > S[0] * 1e-12 else 0.0), math.nan
-        U, S, _ = thin_svd(J)
+            return (float(S[-1]) if S[-1] > S[0] * 1e-12 else 0.0), math.nan, None
+        U, S, Vt = thin_svd(J)
         if not S[-1] > S[0] * 1e-12:
-            return 0.0, 1.0
+            return 0.0, 1.0, None
         c = d.dot(U) / S
         total = float(c @ c)
-        return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0)
+        return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0), c.dot(Vt)
 
     def sigma_for_watch(self, sigma: Any) -> float | None:
         """σ_min of a direction solve (the ``sigma`` of `direction_qd`) when it may be below

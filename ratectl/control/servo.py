@@ -149,7 +149,7 @@ class Servo:
             caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(sig_w), w_prime=ap.w_prime(w),
                                   exact=lambda q2, share=True: pr.exact_direction(q2, ap.d, (q, J),
                                                                                   share=share),
-                                  ahead=lambda: ap.stopping_progress(dt))
+                                  ahead=lambda a, j: ap.stopping_progress(dt, a, j))
             w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother
             # (the room ahead is measured from the arm; the reference leads it along the line)
             speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max),
