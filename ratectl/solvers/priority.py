@@ -197,6 +197,7 @@ class PriorityCascade:
         self._kept: dict[tuple, np.ndarray] = {}
         self._no_rows: dict[int, np.ndarray] = {}  # G (0, n) of a solve without extra rows
         self._projection: np.ndarray | None = None  # the last null-space projection within the box
+        self._one_fixed: tuple | None = None  # (n, qps, freedom, box_active) of `_one_level`
 
     def __repr__(self) -> str:
         return f"PriorityCascade(backend={self.backend!r}, damping={self.damping!r})"
@@ -293,6 +294,10 @@ class PriorityCascade:
         for a in (lo, hi):  # the step's own box is frozen in place for the result (not copied)
             if bc is None or (a is not bc.vmax and a is not bc.nvmax):
                 a.setflags(write=False)
+        if extra_inequalities is None and len(levels) == 1 and n:
+            one = self._one_level(levels[0], lo, hi, n)
+            if one is not None:
+                return one
         if extra_inequalities is None:
             G = self._no_rows.get(n)
             if G is None:
@@ -310,6 +315,36 @@ class PriorityCascade:
                                   f"{self.backend!r}", status="failed") from None
         relaxed, feasible = self._relaxation(lo, hi, G, h)
         return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible, stacked=stacked)
+
+    def _one_level(self, level, lo, hi, n) -> CascadeResult | None:
+        """One level and no extra rows, the common case of a single weighted least squares
+        under the box: its minimiser ``q̇ = H⁻¹ Mᵀ W^{1/2} b`` (``H = MᵀM + λ²I``, M the
+        weighted rows, one Cholesky) when it lies farther than the activity tolerance from
+        every face of the box — then it is the answer, with no joint on a face and no QP;
+        None otherwise (`_cascade` decides). The same arithmetic as `_cascade`'s first
+        pass, without its bookkeeping."""
+        A, b, sw = level
+        M = A if sw is None else sw[:, None] * A
+        H = M.T @ M
+        lam2 = self.damping**2
+        if lam2:
+            H += self._lam2_eye(n)
+        x = _spd_solve(H, M.T @ (b if sw is None else b * sw))
+        cl = x.tolist()
+        lo_f, hi_f = lo.tolist(), hi.tolist()
+        act_tol = _ACT_TOL * max(max(map(abs, hi_f)) + max(map(abs, lo_f)), 1.0)
+        if not (min(map(_sub, hi_f, cl)) > act_tol and min(map(_sub, cl, lo_f)) > act_tol):
+            return None
+        self._projection = x
+        d = A @ x - b
+        if sw is not None:
+            d *= sw
+        res = np.array([math.sqrt(d.dot(d))])
+        fixed = self._one_fixed
+        if fixed is None or fixed[0] != n:
+            fixed = self._one_fixed = (n, self._frozen([False], bool), self._frozen([n], int),
+                                       shared_zeros(n, dtype=bool))
+        return _owned_result(x, res, fixed[1], fixed[2], lo, hi, fixed[3], _NO_ROWS, _NO_H, self.backend)
 
     def _cascade(self, lv, lo, hi, G, h, relaxed, n, fallback=None, stacked=None) -> CascadeResult:
         """The levels in order; ``fallback`` (a q̇ known to satisfy the box and the rows)
