@@ -208,7 +208,10 @@ class FrameTask(Task):
             ep, th = pose_error_into(e, self._target, T)
             norm = math.sqrt(ep * ep + th * th)
             np.multiply(e, self.gain * s, out=b)
-            np.multiply(J, s, out=A)
+            if s == 1.0:  # (a weight of 1: the rows as they are, a copy)
+                A[...] = J
+            else:
+                np.multiply(J, s, out=A)
             if self._has_twist:
                 b += s * self._twist
             return norm
@@ -222,7 +225,10 @@ class FrameTask(Task):
             norm = ep if r.start == 0 else th
             e[...] = e6[r]
             np.multiply(e, self.gain * s, out=b)
-        np.multiply(J[r], s, out=A)
+        if s == 1.0:
+            A[...] = J[r]
+        else:
+            np.multiply(J[r], s, out=A)
         if self._has_twist:
             b += s * self._twist[r]
         return norm
