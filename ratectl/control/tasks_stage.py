@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..arrays import read_only
+from ..arrays import read_only, shared_zeros
 from ..errors import InputError, SolverError
 from ..solvers.priority import CascadeResult, PriorityCascade
 from ..tasks.base import FrameTask, Task
@@ -114,6 +114,7 @@ class TasksStage:
         self._tool_e: np.ndarray | None = None
         self._stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None = None
         self._framed: tuple[list[FrameTask], tuple[str | None, ...], list[int]] | None = None
+        self._no_joint = shared_zeros(chain.dof, dtype=bool)  # (the cascade's "no joint on a face")
 
     def _layout(self, q: np.ndarray, key: list) -> None:
         """Each level's arrays (the weighted rows √w·A (m, n) and √w·b (m,), the errors (m,))
@@ -200,7 +201,9 @@ class TasksStage:
         if not math.isfinite(sum(res.qd.tolist())):
             raise SolverError("the priority cascade gave a non-finite q̇ (non-finite task rows?)",
                               status="failed")
-        if rows is None and (limits is None or True not in res.box_active.tolist()):
+        active_box = res.box_active
+        if rows is None and (limits is None or active_box is self._no_joint
+                             or True not in active_box.tolist()):
             flags: tuple[str, ...] = ()  # (the common cycle: nothing held the motion back)
             reasons: tuple[str, ...] = ()
             active: tuple[str, ...] = ()
