@@ -812,15 +812,13 @@ def _null_space_qr(M: np.ndarray, tolerance: float) -> np.ndarray | None:
 def _owned_result(qd, residuals, qps, freedom, lo, hi, box_active, rows_active, relaxed,
                   backend) -> CascadeResult:
     """The `CascadeResult` of the cascade's own fresh arrays, frozen in place rather than
-    copied (``qps`` and ``freedom`` read-only already; the box is copied by `read_only` only
-    where it is writable)."""
-    for a in (qd, residuals, box_active, rows_active, relaxed):
-        if a.flags.writeable:
-            a.setflags(write=False)
+    copied (``qps`` and ``freedom`` read-only already; the box is the step's own, frozen by
+    `PriorityCascade.solve_validated`, or the bound cache's read-only arrays; freezing an
+    array that is read-only already changes nothing)."""
+    for a in (qd, residuals, box_active, rows_active, relaxed, lo, hi):
+        a.setflags(write=False)
     r = object.__new__(CascadeResult)
     object.__setattr__(r, "__dict__", {"qd": qd, "residuals": residuals, "qps": qps, "freedom": freedom,
-                                       "lower": lo if not lo.flags.writeable else read_only(lo),
-                                       "upper": hi if not hi.flags.writeable else read_only(hi),
-                                       "box_active": box_active, "rows_active": rows_active,
-                                       "relaxed": relaxed, "backend": backend})
+                                       "lower": lo, "upper": hi, "box_active": box_active,
+                                       "rows_active": rows_active, "relaxed": relaxed, "backend": backend})
     return r
