@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 __all__ = ["tasks_stage", "tasks_command", "smoothed_tasks_motion"]
 
 _REGULAR = ("regular",)
+_NO_TWIST = shared_zeros(6)  # (a tasks cycle commands no tool twist)
 
 
 def tasks_stage(chain: Chain, tasks: Any, collision: Any) -> TasksStage | None:
@@ -58,7 +59,7 @@ def tasks_command(stage: TasksStage, chain: Chain, res: Any, q_next: np.ndarray,
         ep, eo = math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(rx * rx + ry * ry + rz * rz)
     return make_command({"qd": qd, "q_next": q_next, "qdd": qdd.copy(), "status": status,
                          "flags": flags, "reason": reason, "error": e,
-                         "position_error": ep, "orientation_error": eo, "twist": shared_zeros(6),
+                         "position_error": ep, "orientation_error": eo, "twist": _NO_TWIST,
                          "sigma_min": float("nan"), "damping": 0.0, "task_error": res.residuals,
                          "velocity_scale": 1.0, "limits_active": res.limits_active, "time": t0,
                          "dt": dt, "solve": res}, chain, q)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..arrays import read_only
+from ..arrays import read_only, shared_zeros
 from ..errors import InputError, SolverError
 from ..solvers.priority import CascadeResult, PriorityCascade
 from ..tasks.base import FrameTask, Task
@@ -114,6 +114,7 @@ class TasksStage:
         self._tool_e: np.ndarray | None = None
         self._stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None = None
         self._framed: tuple[list[FrameTask], tuple[str | None, ...], list[int]] | None = None
+        self._no_joint = shared_zeros(chain.dof, dtype=bool)  # (the cascade's "no joint on a face")
 
     def _layout(self, q: np.ndarray, key: list) -> None:
         """Each level's arrays (the weighted rows √w·A (m, n) and √w·b (m,), the errors (m,))
@@ -185,30 +186,63 @@ class TasksStage:
         for k, t, A_t, b_t, e_t, sw in self._fills:
             errs[k] = t._fill(chain, q, A_t, b_t, e_t, sw)
         errors = np.array(errs)
-        priorities = self._priorities
         levels = self._levels
-        G: np.ndarray | None = None
-        h: np.ndarray | None = None
-        pairs: list[tuple[str, str]] = []
-        dist: list[float] = []
-        closest = math.inf
+        damper = None
+        rows: tuple[np.ndarray, np.ndarray] | None = None
         if self.collision:
-            parts = [c.rows(q) for c in self.collision]
-            if len(parts) == 1:
-                G, h = parts[0].G, parts[0].h
-            else:
-                G = np.vstack([p.G for p in parts])
-                h = np.concatenate([p.h for p in parts])
-            for p in parts:
-                pairs += p.pairs
-                dist += p.distance.tolist()
-                closest = min(closest, p.closest)
-        rows = (G, h) if G is not None and h is not None and h.size else None
+            G, h, pairs, dist, closest = self._dampers(q)
+            damper = (read_only(G), read_only(h))
+            if h.size:
+                rows = (G, h)
+        else:
+            pairs, dist, closest = [], [], math.inf
         res = self.cascade.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
                                            extra_inequalities=rows, stacked=self._stacked)
         if not math.isfinite(sum(res.qd.tolist())):
             raise SolverError("the priority cascade gave a non-finite q̇ (non-finite task rows?)",
                               status="failed")
+        active_box = res.box_active
+        if rows is None and (limits is None or active_box is self._no_joint
+                             or True not in active_box.tolist()):
+            flags: tuple[str, ...] = ()  # (the common cycle: nothing held the motion back)
+            reasons: tuple[str, ...] = ()
+            active: tuple[str, ...] = ()
+        else:
+            flags, reasons, active = self._held_back(res, rows, pairs, dist, q=q, qd_prev=qd_prev, dt=dt,
+                                                     limits=limits)
+        errors.setflags(write=False)
+        return _owned_result(TasksResult, {
+            "qd": res.qd, "priorities": self._priorities, "residuals": res.residuals, "task_errors": errors,
+            "flags": flags, "reasons": reasons, "limits_active": active,
+            "collision_distance": float(closest), "cascade": res, "damper_rows": damper})
+
+    def _dampers(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[tuple[str, str]], list[float],
+                                               float]:
+        """The collision models' damper rows at ``q``: ``(G (k, n), h (k,), the pair of each
+        row, its distance [m], the smallest distance checked [m])``."""
+        parts = [c.rows(q) for c in self.collision]
+        if len(parts) == 1:
+            G, h = parts[0].G, parts[0].h
+        else:
+            G = np.vstack([p.G for p in parts])
+            h = np.concatenate([p.h for p in parts])
+        pairs: list[tuple[str, str]] = []
+        dist: list[float] = []
+        closest = math.inf
+        for p in parts:
+            pairs += p.pairs
+            dist += p.distance.tolist()
+            closest = min(closest, p.closest)
+        return G, h, pairs, dist, closest
+
+    def _held_back(self, res: CascadeResult, rows: tuple[np.ndarray, np.ndarray] | None,
+                   pairs: list[tuple[str, str]], dist: list[float], *, q: np.ndarray,
+                   qd_prev: np.ndarray | None, dt: float, limits: Limits | Chain | None,
+                   ) -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
+        """What held the motion back in the solve ``res``: ``(flags, reasons, kinds of joint
+        limit active)`` — active collision dampers that make a level do worse than the box
+        alone would, relaxed dampers, joints on a face of the box."""
+        levels = self._levels
         flags: list[str] = []
         reasons: list[str] = []
         if rows is not None and True in res.rows_active.tolist():
@@ -216,7 +250,8 @@ class TasksStage:
             # only in the cycles where a damper row is active)
             free = self.cascade.residuals_without_rows(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt)
             scale = 1.0 + float(np.abs(levels[0][1]).max())  # (the weighted b)
-            blocked = [p for p, r, r0 in zip(priorities, res.residuals.tolist(), free.tolist(), strict=True)
+            blocked = [p for p, r, r0 in zip(self._priorities, res.residuals.tolist(), free.tolist(),
+                                             strict=True)
                        if r > r0 + 1e-6 * scale]
             if blocked:
                 act = np.flatnonzero(res.rows_active)
@@ -233,19 +268,14 @@ class TasksStage:
         if limits is not None and True in res.box_active.tolist():
             by_kind: dict[str, list[str]] = {}
             for j, kind in self.cascade.limit_kinds(res, qd_prev):
-                by_kind.setdefault(kind, []).append(chain.joint_names[j])
+                by_kind.setdefault(kind, []).append(self.chain.joint_names[j])
             active = tuple(k for k in ("velocity", "position", "acceleration") if k in by_kind)
             for kind, flag in (("position", "joint-limit"), ("velocity", "velocity-scaled"),
                                ("acceleration", "acceleration-limited")):
                 if kind in by_kind:
                     flags.append(flag)
                     reasons.append(f"joint(s) {by_kind[kind]} at their {kind} bound")
-        errors.setflags(write=False)
-        damper = None if G is None or h is None else (read_only(G), read_only(h))
-        return _owned_result(TasksResult, {
-            "qd": res.qd, "priorities": priorities, "residuals": res.residuals, "task_errors": errors,
-            "flags": tuple(dict.fromkeys(flags)), "reasons": tuple(reasons), "limits_active": active,
-            "collision_distance": float(closest), "cascade": res, "damper_rows": damper})
+        return tuple(dict.fromkeys(flags)), tuple(reasons), active
 
 
 def _owned_result(cls: type, fields: dict[str, Any]) -> Any:

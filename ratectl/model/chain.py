@@ -536,6 +536,26 @@ class Chain:
                 return a[:16].reshape(4, 4), a[16:].reshape(6, self._n)
         return kinematics.fk_jacobian(self, q, frame=frame, point=point)
 
+    def fk_rows_jacobian(self, q: ArrayLike) -> tuple[Sequence[Sequence[float]], np.ndarray]:
+        """The tool pose's first three rows as Python floats (R | p, three sequences of four)
+        and the Jacobian (6, n), for one configuration (n,): the numbers of
+        ``(fk(q)[:3].tolist(), jacobian(q))`` from one kernel call, for code that works on
+        the pose's numbers (a pose error on rows of floats, every control cycle) without an
+        array and its ``tolist()``."""
+        if type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64:
+            v = q.tolist()
+            s = sum(v)
+            if s - s == 0.0:
+                k = self._kernels.get(_FKJAC) or kinematics.build_kernel(self, _FKJAC)
+                t = k(*v)
+                n = self._n
+                return (t[0:4], t[4:8], t[8:12]), _fromiter(t, _F64, 16 + 6 * n)[16:].reshape(6, n)
+        T, J = self.fk_jacobian(q)
+        if T.ndim != 2:
+            raise InputError(f"fk_rows_jacobian takes one configuration ({self._n},), got a batch of "
+                             f"shape {T.shape[:-2]}", argument="q", value=q)
+        return T[:3].tolist(), J
+
     def fk_jacobian_links(self, q: ArrayLike,
                           links: Sequence[str | None]) -> list[tuple[np.ndarray, np.ndarray]]:
         """``[fk_jacobian(q, link=l) for l in links]`` (``None``: the tool), the same numbers,

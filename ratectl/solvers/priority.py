@@ -197,6 +197,7 @@ class PriorityCascade:
         self._kept: dict[tuple, np.ndarray] = {}
         self._no_rows: dict[int, np.ndarray] = {}  # G (0, n) of a solve without extra rows
         self._projection: np.ndarray | None = None  # the last null-space projection within the box
+        self._one_fixed: tuple | None = None  # (n, qps, freedom, box_active) of `_one_level`
 
     def __repr__(self) -> str:
         return f"PriorityCascade(backend={self.backend!r}, damping={self.damping!r})"
@@ -293,6 +294,10 @@ class PriorityCascade:
         for a in (lo, hi):  # the step's own box is frozen in place for the result (not copied)
             if bc is None or (a is not bc.vmax and a is not bc.nvmax):
                 a.setflags(write=False)
+        if extra_inequalities is None and len(levels) == 1 and n:
+            one = self._one_level(levels[0], lo, hi, n)
+            if one is not None:
+                return one
         if extra_inequalities is None:
             G = self._no_rows.get(n)
             if G is None:
@@ -310,6 +315,44 @@ class PriorityCascade:
                                   f"{self.backend!r}", status="failed") from None
         relaxed, feasible = self._relaxation(lo, hi, G, h)
         return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible, stacked=stacked)
+
+    def _one_level(self, level, lo, hi, n) -> CascadeResult | None:
+        """One level and no extra rows, the common case of a single weighted least squares
+        under the box: its minimiser ``q̇ = H⁻¹ Mᵀ W^{1/2} b`` (``H = MᵀM + λ²I``, M the
+        weighted rows, one Cholesky) when it lies farther than the activity tolerance from
+        every face of the box — then it is the answer, with no joint on a face and no QP;
+        None otherwise (`_cascade` decides). The same arithmetic as `_cascade`'s first
+        pass, without its bookkeeping."""
+        A, b, sw = level
+        M = A if sw is None else sw[:, None] * A
+        H = M.T.dot(M)
+        lam2 = self.damping**2
+        if lam2:
+            H += self._lam2_eye(n)
+        x = _spd_solve(H, M.T.dot(b if sw is None else b * sw))
+        cl = x.tolist()
+        lo_f, hi_f = lo.tolist(), hi.tolist()
+        act_tol = _ACT_TOL * max(max(map(abs, hi_f)) + max(map(abs, lo_f)), 1.0)
+        if not (min(map(_sub, hi_f, cl)) > act_tol and min(map(_sub, cl, lo_f)) > act_tol):
+            return None
+        self._projection = x
+        d = A.dot(x) - b
+        if sw is not None:
+            d *= sw
+        res = np.array([math.sqrt(d.dot(d))])
+        fixed = self._one_fixed
+        if fixed is None or fixed[0] != n:
+            fixed = self._one_fixed = (n, self._frozen([False], bool), self._frozen([n], int),
+                                       shared_zeros(n, dtype=bool))
+        # (`_owned_result` with what is known here: x and res fresh, the box frozen by the
+        # caller, the rest shared read-only arrays)
+        x.setflags(write=False)
+        res.setflags(write=False)
+        r = object.__new__(CascadeResult)
+        object.__setattr__(r, "__dict__", {
+            "qd": x, "residuals": res, "qps": fixed[1], "freedom": fixed[2], "lower": lo, "upper": hi,
+            "box_active": fixed[3], "rows_active": _NO_ROWS, "relaxed": _NO_H, "backend": self.backend})
+        return r
 
     def _cascade(self, lv, lo, hi, G, h, relaxed, n, fallback=None, stacked=None) -> CascadeResult:
         """The levels in order; ``fallback`` (a q̇ known to satisfy the box and the rows)
@@ -345,8 +388,8 @@ class PriorityCascade:
             if r == 1 and Z is not None:
                 # one free direction v: the level's minimiser along it on floats
                 v = Z[:, 0]
-                mv = Mw @ v
-                rhs = b - A @ x
+                mv = Mw.dot(v)
+                rhs = b - A.dot(x)
                 if sw is not None:
                     rhs *= sw
                 mm = float(mv.dot(mv))
@@ -360,8 +403,8 @@ class PriorityCascade:
                 parts.append((Z, M, hh, V))  # (H = [[hh]], made in pass 2 if needed)
                 x = x + v * t
             else:
-                M = Mw if Z is None else Mw @ Z
-                H = M.T @ M
+                M = Mw if Z is None else Mw.dot(Z)
+                H = M.T.dot(M)
                 if lam2:
                     H += self._lam2_eye(r)
                 V = _null_space(M, self.tolerance) if k + 1 < nlev else None
@@ -369,14 +412,14 @@ class PriorityCascade:
                 if Z is None:
                     # the first level, every direction free: its minimiser H⁻¹Mᵀ W^{1/2} b
                     # whatever the start (x + H⁻¹(Mᵀ W^{1/2}(b − A x) − λ²x) is that point)
-                    x = _spd_solve(H, M.T @ (b if sw is None else b * sw))
+                    x = _spd_solve(H, M.T.dot(b if sw is None else b * sw))
                 else:
-                    x = x + Z @ _spd_solve(H, self._gradient(A, b, sw, M, Z, x, False, lam2))
+                    x = x + Z.dot(_spd_solve(H, self._gradient(A, b, sw, M, Z, x, False, lam2)))
             if V is not None:
                 if V is _NONE_OF_ONE:  # (Z @ V without the product: no direction left)
                     Z = _no_columns(n)
                 elif V is not _ONE_OF_ONE:  # (the one direction stays)
-                    Z = V if Z is None else Z @ V
+                    Z = V if Z is None else Z.dot(V)
         cl = x.tolist()
         # farther than the activity tolerance from every face of the box (the common case:
         # then strictly inside, and no joint on a face), else within the box: strictly
@@ -392,7 +435,7 @@ class PriorityCascade:
             ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
         self._projection = x if ok else None  # (within the box: the answer without the rows)
         if ok and have_rows:
-            ok = bool((G @ x <= h_tol).all())
+            ok = bool((G.dot(x) <= h_tol).all())
         qps = [False] * nlev
         if not ok:
             if lo_l is None:
@@ -420,7 +463,7 @@ class PriorityCascade:
         res = _residuals(lv, x) if stacked is None else _stacked_residuals(stacked, x)
         # (the first pass's answer, far from every face: no joint on one)
         box_active = shared_zeros(n, dtype=bool) if ok and far else self._box_active(xl, lo_f, hi_f, act_tol)
-        rows_active = (G @ x >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
+        rows_active = (G.dot(x) >= h - _ACT_TOL * (1.0 + np.abs(h))) if have_rows else _NO_ROWS
         return _owned_result(x, res, self._frozen(qps, bool), self._frozen(freedom, int), lo, hi,
                              box_active, rows_active, relaxed, self.backend)
 
@@ -461,12 +504,12 @@ class PriorityCascade:
     @staticmethod
     def _gradient(A, b, sw, M, Z, x, x_zero, lam2) -> np.ndarray:
         """−f of a level at the answer so far x: ``Mᵀ W^{1/2}(b − A x) − λ² Zᵀx``."""
-        rhs = b if x_zero else b - A @ x
+        rhs = b if x_zero else b - A.dot(x)
         if sw is not None:
             rhs = rhs * sw
-        g = M.T @ rhs
+        g = M.T.dot(rhs)
         if lam2 and not x_zero:
-            g -= lam2 * (x if Z is None else Z.T @ x)
+            g -= lam2 * (x if Z is None else Z.T.dot(x))
         return g
 
     def _solve_level(self, A, b, sw, part, x, x_zero, lam2, more, lo, hi, lo_l, hi_l, G, h, h_tol, n,
@@ -484,11 +527,11 @@ class PriorityCascade:
         r = H.shape[0]
         g = self._gradient(A, b, sw, M, Z, x, x_zero, lam2)
         z = _spd_solve(H, g)
-        cand = x + (z if Z is None else Z @ z)
+        cand = x + (z if Z is None else Z.dot(z))
         cl = cand.tolist()
         ok = not (any(map(_lt, cl, lo_l)) or any(map(_gt, cl, hi_l)))
         if ok and h.size:
-            ok = bool((G @ cand <= h_tol).all())
+            ok = bool((G.dot(cand) <= h_tol).all())
         if ok:
             return cand, False
         if r == 1:
@@ -512,7 +555,7 @@ class PriorityCascade:
             if fallback is None:
                 raise
             z = fallback - x
-        return x + (z if Z is None else Z @ z), True
+        return x + (z if Z is None else Z.dot(z)), True
 
     # ------------------------------------------------------------------ pieces
     def _lam2_eye(self, r: int) -> np.ndarray:
@@ -635,7 +678,7 @@ def _residuals(levels, x: np.ndarray) -> np.ndarray:
     """‖W_k^{1/2}(A_k q̇ − b_k)‖ of every level at q̇ = x."""
     res = []
     for A, b, sw in levels:
-        d = A @ x - b
+        d = A.dot(x) - b
         if sw is not None:
             d *= sw
         res.append(math.sqrt(d.dot(d)))
@@ -647,7 +690,7 @@ def _stacked_residuals(stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]], 
     ``d = A_all x − b_all`` once, then each level's ‖d‖ over its rows (one reduction over
     the levels' row blocks when none is empty)."""
     A, b, ends = stacked
-    d = A @ x - b
+    d = A.dot(x) - b
     starts = _STARTS.get(ends)
     if starts is None:
         if len(_STARTS) > 64:
@@ -769,15 +812,13 @@ def _null_space_qr(M: np.ndarray, tolerance: float) -> np.ndarray | None:
 def _owned_result(qd, residuals, qps, freedom, lo, hi, box_active, rows_active, relaxed,
                   backend) -> CascadeResult:
     """The `CascadeResult` of the cascade's own fresh arrays, frozen in place rather than
-    copied (``qps`` and ``freedom`` read-only already; the box is copied by `read_only` only
-    where it is writable)."""
-    for a in (qd, residuals, box_active, rows_active, relaxed):
-        if a.flags.writeable:
-            a.setflags(write=False)
+    copied (``qps`` and ``freedom`` read-only already; the box is the step's own, frozen by
+    `PriorityCascade.solve_validated`, or the bound cache's read-only arrays; freezing an
+    array that is read-only already changes nothing)."""
+    for a in (qd, residuals, box_active, rows_active, relaxed, lo, hi):
+        a.setflags(write=False)
     r = object.__new__(CascadeResult)
     object.__setattr__(r, "__dict__", {"qd": qd, "residuals": residuals, "qps": qps, "freedom": freedom,
-                                       "lower": lo if not lo.flags.writeable else read_only(lo),
-                                       "upper": hi if not hi.flags.writeable else read_only(hi),
-                                       "box_active": box_active, "rows_active": rows_active,
-                                       "relaxed": relaxed, "backend": backend})
+                                       "lower": lo, "upper": hi, "box_active": box_active,
+                                       "rows_active": rows_active, "relaxed": relaxed, "backend": backend})
     return r

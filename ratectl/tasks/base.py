@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike
 from ..arrays import read_only
 from ..checks import positive_number
 from ..errors import InputError
-from ..spatial import pose_error_into, rigid_transform_defect
+from ..spatial import rigid_transform_defect, rotation_error_rows
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -161,9 +161,9 @@ class FrameTask(Task):
                              argument="link", value=link)
         self.link = link
         self._target: np.ndarray | None = None
+        self._target_rows: list[list[float]] = []  # the target's rows as floats (set with it)
         self._twist = np.zeros(6)
         self._has_twist = False
-        self._e = np.empty(6)  # the pose error of the last fill (Position, Orientation)
         # (pose, Jacobian) of the frame at this cycle's q, set just before `_fill` by a caller
         # that computes several tasks' frames in one pass (the controller's tasks stage)
         self._frame_now: tuple[np.ndarray, np.ndarray] | None = None
@@ -179,6 +179,7 @@ class FrameTask(Task):
 
     def _set(self, T: np.ndarray, twist: np.ndarray | None) -> None:
         self._target = T
+        self._target_rows = T.tolist()
         self._twist = np.zeros(6)
         if twist is not None:
             self._twist[self._rows] = twist
@@ -201,28 +202,41 @@ class FrameTask(Task):
         if pre is not None:  # (computed with the other tasks' frames by the controller)
             T, J = pre
             self._frame_now = None
+            a = T.tolist()
+        elif self.link is None and type(self).frame is FrameTask.frame:
+            a, J = chain.fk_rows_jacobian(q)  # (the tool: its rows as floats, no 4×4 array)
         else:
             T, J = self.frame(chain, q)
+            a = T.tolist()
+        # the pose error [p_d − p; log(R_d Rᵀ)] on the rows of floats (its rotational part
+        # `rotation_error_rows`, as in `pose_error_into`)
+        d = self._target_rows
+        ex, ey, ez = d[0][3] - a[0][3], d[1][3] - a[1][3], d[2][3] - a[2][3]
         r = self._rows
-        if r.start == 0 and r.stop == 6:  # the full pose: the error straight into e
-            ep, th = pose_error_into(e, self._target, T)
-            norm = math.sqrt(ep * ep + th * th)
-            np.multiply(e, self.gain * s, out=b)
-            np.multiply(J, s, out=A)
-            if self._has_twist:
-                b += s * self._twist
-            return norm
-        elif r.stop == 3:  # the position alone: p_d − p (no rotation error to compute)
-            np.subtract(self._target[:3, 3], T[:3, 3], out=e)
-            norm = math.sqrt(float(e.dot(e)))
-            np.multiply(e, self.gain * s, out=b)
+        g = self.gain * s
+        if r.stop == 3:  # the position alone (no rotation error to compute)
+            e[:] = (ex, ey, ez)
+            b[:] = (ex * g, ey * g, ez * g)
+            norm = math.sqrt(ex * ex + ey * ey + ez * ez)
         else:
-            e6 = self._e
-            ep, th = pose_error_into(e6, self._target, T)
-            norm = ep if r.start == 0 else th
-            e[...] = e6[r]
-            np.multiply(e, self.gain * s, out=b)
-        np.multiply(J[r], s, out=A)
+            x, y, z, th = rotation_error_rows(d, a)
+            if r.start == 0:  # the full pose
+                e[:] = (ex, ey, ez, x, y, z)
+                b[:] = (ex * g, ey * g, ez * g, x * g, y * g, z * g)
+                ep = math.sqrt(ex * ex + ey * ey + ez * ez)
+                norm = math.sqrt(ep * ep + th * th)
+            else:  # the orientation alone
+                e[:] = (x, y, z)
+                b[:] = (x * g, y * g, z * g)
+                norm = th
+        if r.stop - r.start == 6:
+            Jr = J
+        else:
+            Jr = J[r]
+        if s == 1.0:  # (a weight of 1: the rows as they are, a copy)
+            A[...] = Jr
+        else:
+            np.multiply(Jr, s, out=A)
         if self._has_twist:
             b += s * self._twist[r]
         return norm

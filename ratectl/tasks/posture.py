@@ -50,8 +50,8 @@ class Posture(Task):
                                                                "[rad or m]")
         self._joints = None if joints is None else np.asarray(joints, dtype=int).ravel()
         self._A: tuple[tuple[int, float], np.ndarray] | None = None  # the scaled rows of I, kept
-        self._estar: tuple | None = None  # (amax, jmax, gain, e* per joint, amax, jmax lists)
-        self._rows_in: tuple | None = None  # (A, key): the array whose rows were last written
+        self._estar: tuple | None = None  # (chain, gain, e* per joint, amax, jmax lists)
+        self._rows_in: tuple | None = None  # (A, s, n): the array whose rows were last written
         self._valid: tuple | None = None  # (q_ref, chain, rows): the last q_ref checked on a chain
 
     @property
@@ -82,21 +82,21 @@ class Posture(Task):
         return self._q_ref
 
     def _brake(self, chain: Chain, e: np.ndarray, b: np.ndarray, s: float) -> None:
-        """Bound ``b`` (= K·s·e) to ``s·v_stop(|e_i|)`` where the error is past e* (see the
+        """``b = s·K·e``, bounded to ``s·v_stop(|e_i|)`` where the error is past e* (see the
         class docstring); e* per joint is kept per (chain limits, gain)."""
         K = self.gain
-        amax, jmax = chain.amax, chain.jmax
         c = self._estar
-        if c is None or c[0] is not amax or c[1] is not jmax or c[2] != K:
+        if c is None or c[0] is not chain or c[1] != K:
             j = slice(None) if self._joints is None else self._joints
-            al, jl = amax[j].tolist(), jmax[j].tolist()
-            c = self._estar = (amax, jmax, K, [_linear_up_to(K, a, jj) for a, jj in zip(al, jl, strict=True)],
+            al, jl = chain.amax[j].tolist(), chain.jmax[j].tolist()
+            c = self._estar = (chain, K, [_linear_up_to(K, a, jj) for a, jj in zip(al, jl, strict=True)],
                                al, jl)
-        estar = c[3]
+        estar = c[2]
         el = e.tolist()
+        np.multiply(e, K * s, out=b)
         if not any(map(_gt, map(abs, el), estar)):
             return  # every joint within its linear range (the common case)
-        al, jl = c[4], c[5]
+        al, jl = c[3], c[4]
         for i, (ei, es) in enumerate(zip(el, estar, strict=True)):
             if abs(ei) > es:
                 v = min(K * abs(ei), braking_speed_scalar(abs(ei), al[i], jl[i]))
@@ -126,16 +126,15 @@ class Posture(Task):
             np.subtract(q_ref, q, out=e)
         else:
             e[...] = q_ref[j] - q[j]
-        np.multiply(e, self.gain * s, out=b)
         self._brake(chain, e, b, s)
-        key = (n, s)
-        if self._A is None or self._A[0] != key:
-            rows = np.eye(n) * s
-            self._A = (key, rows if j is None else rows[j])
         w = self._rows_in
-        if w is None or w[0] is not A or w[1] != key:  # (the controller's level arrays keep them)
+        if w is None or w[0] is not A or w[1] != s or w[2] != n:  # (the controller's level arrays keep them)
+            key = (n, s)
+            if self._A is None or self._A[0] != key:
+                rows = np.eye(n) * s
+                self._A = (key, rows if j is None else rows[j])
             A[...] = self._A[1]
-            self._rows_in = (A, key)
+            self._rows_in = (A, s, n)
         return math.sqrt(float(e.dot(e)))
 
 

@@ -1,0 +1,42 @@
+"""The cascade's fast paths give the general path's answers, to the bit."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ratectl.solvers.priority import PriorityCascade
+
+
+class _Box:
+    def __init__(self, n, vmax, amax=np.inf):
+        self.lower = np.full(n, -np.inf)
+        self.upper = np.full(n, np.inf)
+        self.vmax = np.full(n, vmax)
+        self.amax = np.full(n, amax)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(0, 6), st.booleans(), st.floats(0.05, 5.0),
+       st.floats(0.001, 1.0))
+def test_one_level_without_rows_is_the_general_cascade(seed, m, weighted, vmax, scale):
+    # one level and no extra rows takes a shortcut (one solve, no cascade bookkeeping);
+    # an extra row that can never be active sends the same problem through the general
+    # cascade: the same q̇, residual and activity, whether the box holds the answer or not
+    rng = np.random.default_rng(seed)
+    n = 7
+    # a tool-like block of m rows over a posture-like identity (every direction seen)
+    A = np.vstack([rng.normal(size=(m, n)), 0.1 * np.eye(n)])
+    b = scale * rng.normal(size=m + n)
+    w = rng.uniform(0.1, 10.0, size=m + n) if weighted else None
+    q, qd_prev = rng.normal(size=n), rng.normal(scale=0.05, size=n)
+    lim = _Box(n, vmax, amax=100.0)
+    level = (A, b) if w is None else (A, b, w)
+    fast = PriorityCascade().solve([level], limits=lim, q=q, qd_prev=qd_prev, dt=0.01)
+    general = PriorityCascade().solve([level], limits=lim, q=q, qd_prev=qd_prev, dt=0.01,
+                                      extra_inequalities=(np.zeros((1, n)), np.ones(1)))
+    assert fast.qd.tolist() == general.qd.tolist()
+    assert fast.residuals.tolist() == general.residuals.tolist()
+    for name in ("qps", "freedom", "box_active", "lower", "upper"):
+        assert getattr(fast, name).tolist() == getattr(general, name).tolist(), name
+    assert fast.rows_active.shape == (0,) and fast.relaxed.shape == (0,)
+    assert not fast.qd.flags.writeable and not fast.residuals.flags.writeable
