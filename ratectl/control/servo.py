@@ -83,6 +83,7 @@ class Servo:
         self._ik_tried: np.ndarray | None = None  # the last target an IK alternative was sought for
         self._line_blocked = ""
         self._lag_max = _LAG_MAX
+        self._idle = False  # the approach is as `forget` leaves it (a jog cycle forgets only then)
         self.reset()
 
     def reset(self) -> None:
@@ -97,6 +98,7 @@ class Servo:
         ξ = ṡ̄·d + K·e_ref: the mean progress speed of the period along the direction's own
         answer w (`Solver.solve_direction`, exact where J is regular) plus the solved feedback
         on the error to the reference pose T(s), both without the limits (the limiter's)."""
+        self._idle = False
         T, J = self.chain.fk_jacobian(q)
         cyc.J = J
         cyc.target = True
@@ -150,7 +152,8 @@ class Servo:
                                   exact=lambda q2, share=True: pr.exact_direction(q2, ap.d, (q, J),
                                                                                   share=share),
                                   ahead=lambda: ap.stopping_progress(dt))
-            w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother
+            # ẇ, for the smoother
+            w_rate = None if ap.w_prev is None or self.filter is None else (w - ap.w_prev) / dt
             # (the room ahead is measured from the arm; the reference leads it along the line)
             speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max),
                                lead=ap.weighted_dot(e_ref, ap.d))
@@ -230,9 +233,12 @@ class Servo:
 
     def forget(self) -> None:
         """No approach in progress: the next target starts a new one from where the arm is."""
+        if self._idle:  # (a cycle of another mode calls this every period)
+            return
         self._straight.reset()
         self._joint_line.reset()
         self._ik_tried = None
+        self._idle = True
 
     def _try_joint_line(self, cyc: Cycle, q, target, block: str) -> str | None:
         """The straight line is blocked where the arm stands (by ``block``, a sentence): the
@@ -303,9 +309,9 @@ class Servo:
         tolerance). Unreachable: outside the tolerances with J q̇, and J (q̇ + q̈/K) one
         time constant ahead, below 1 % of that: the arm has stopped short, no motion within
         the limits lowers the error from here."""
-        K = self.gain
-        vtol = float(K[:3].max()) * self.position_tolerance
-        wtol = float(K[3:].max()) * self.orientation_tolerance
+        k = self.gain.tolist()  # (floats: cheaper than two numpy reductions)
+        vtol = max(k[0], k[1], k[2]) * self.position_tolerance
+        wtol = max(k[3], k[4], k[5]) * self.orientation_tolerance
         twist = cyc.J @ cyc.qd
         if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol):
             return
