@@ -309,13 +309,18 @@ class Servo:
         tolerance). Unreachable: outside the tolerances with J q̇, and J (q̇ + q̈/K) one
         time constant ahead, below 1 % of that: the arm has stopped short, no motion within
         the limits lowers the error from here."""
+        within = cyc.ep <= self.position_tolerance and cyc.eo <= self.orientation_tolerance
+        ap = self._straight
+        if not (within or cyc.blocked) and (
+                self._joint_line.target is not None  # on its way in joint space (see below)
+                or (not self._pursuit and ap.target is not None and ap.s < ap.L and ap.sdd > 0.0)):
+            return  # (neither status, whatever the twist: not computed)
         k = self.gain.tolist()  # (floats: cheaper than two numpy reductions)
         vtol = max(k[0], k[1], k[2]) * self.position_tolerance
         wtol = max(k[3], k[4], k[5]) * self.orientation_tolerance
-        twist = cyc.J @ cyc.qd
-        if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol):
+        t = (cyc.J @ cyc.qd).tolist()
+        if not (math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol):
             return
-        within = cyc.ep <= self.position_tolerance and cyc.eo <= self.orientation_tolerance
         if within:
             cyc.flags.insert(0, "target-reached")
             return
@@ -326,20 +331,18 @@ class Servo:
             cyc.reasons.insert(0, f"stopped {cyc.ep * 1e3:.3g} mm / {math.degrees(cyc.eo):.3g}° from the "
                                f"target: the straight line to it is blocked: {cyc.blocked}")
             return
-        if self._joint_line.target is not None:
-            return  # on its way in joint space (taken this period, where the line is blocked)
-        ap = self._straight
-        if not self._pursuit and ap.target is not None and ap.s < ap.L and ap.sdd > 0.0:
-            return  # the line's progress speeds up: on its way (from rest, its first periods are slow)
+        # (here the arm is on its line or at its end: not in joint space, which is on its way,
+        # taken this period where the line is blocked; nor on a line whose progress speeds up,
+        # from rest its first periods are slow: on its way too)
         # stopped short: below 1 % of that, now and one time constant ahead (an arm that
         # creeps toward a singular target, damped, is still on its way); once said for this
         # target, below 10 % (the last settling does not flicker back to "regular")
         said = self._unreachable is not None and _same(target, self._unreachable)
         vtol *= 0.1 if said else 0.01
         wtol *= 0.1 if said else 0.01
-        ahead = cyc.J @ (cyc.qd + cyc.qdd * self._inv_kmax)
-        if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol
-                and math.hypot(*ahead[:3].tolist()) <= vtol and math.hypot(*ahead[3:].tolist()) <= wtol):
+        a = (cyc.J @ (cyc.qd + cyc.qdd * self._inv_kmax)).tolist()
+        if not (math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol
+                and math.hypot(a[0], a[1], a[2]) <= vtol and math.hypot(a[3], a[4], a[5]) <= wtol):
             return
         if not said:
             self._unreachable = target.copy()

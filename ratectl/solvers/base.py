@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import lapack as _lapack
 
+from ..arrays import shared_zeros
 from ..checks import positive_number as _positive  # noqa: F401  (the solvers import it from here)
 from ..checks import real_array as _real_array
 from ..errors import InputError, RatectlError, SolverError
@@ -23,7 +24,7 @@ if TYPE_CHECKING:
     from ..model.chain import Chain
 
 __all__ = ['SolveResult', 'Solver', 'POSITION_ONLY', 'ORIENTATION_ONLY', 'VELOCITY_POLICIES',
-           'solver_declares', 'validated_solve', 'validated_solve_generic']
+           'solver_declares', 'validated_solve', 'validated_solve_generic', 'direction_result']
 
 
 VELOCITY_POLICIES = ("scale", "clip", None)
@@ -299,6 +300,20 @@ def result_with_qd(res: SolveResult, J: np.ndarray, xi: np.ndarray, qd: np.ndarr
     _store(r, qd.copy(), achieved, xi - achieved, res.damping, _SIGMA_SLOT.__get__(res, SolveResult),
            res.method, res.velocity_policy, res.velocity_scale, res.bound, res.limits_active, res.fallback,
            res.info)
+    return r
+
+
+def direction_result(J: np.ndarray, d: np.ndarray, w: np.ndarray, *, damping: float,
+                     sigma_min: float | _LazySigma, method: str) -> SolveResult:
+    """The `SolveResult` of a direction's answer ``w`` (n,) (`Solver.solve_direction`) for
+    the twist ``d`` (m,): q̇ = a copy of w, achieved J w, task error d − J w, no velocity
+    policy, no joint at a bound, no info. The same result as the keyword constructor's,
+    without its checks of ``info`` and the fresh ``bound`` (a control cycle's jog, every
+    period)."""
+    r = _new(SolveResult)
+    achieved = J.dot(w)
+    _store(r, w.copy(), achieved, d - achieved, damping, sigma_min, method, "none", 1.0,
+           shared_zeros(w.shape[0], bool), (), False, _EMPTY)
     return r
 
 
