@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import RatectlError, SingularityError
 from ..solvers.base import SolveResult, result_with_qd
 from ..solvers.ik import ik_iterate
-from ..spatial import pose_error_into
+from ..spatial import pose_error_into, pose_error_rows
 from .approach import AT_BLOCK, JointLine, StraightApproach
 from .cycle import Cycle, Motion, _finite_sum, _same
 
@@ -109,19 +109,21 @@ class Servo:
                 return self._joint_servo(cyc, q, dt, target, T, J)
             jl.reset()  # a new target: a straight line again, from where the arm is
             ap.reset()
-        if ap.target is None or self._pursuit or not _same(target, ap.target):
+        t = target.tolist()
+        if self._pursuit or not ap.same_target(t):
             if ap.target is None:  # a first target: from the measured pose and the arm's motion
                 ap.retarget(target, T, J @ self._m.qd, J @ self._m.qdd)
             elif self._pursuit:  # from the measured pose, the progress's own motion carried on
                 ap.retarget(target, T, ap.sd * ap.d, ap.sdd * ap.d)
             else:  # a new target: from the reference, which goes on without a jump
-                ap.retarget_from_reference(target, dt=dt)
+                ap.retarget_from_reference(target, dt=dt, rows=t)
         else:
             ap.hold_target()
+        Tl = T.tolist()
         e = cyc.e = np.zeros(6)
-        cyc.ep, cyc.eo = pose_error_into(e, target, T)
+        cyc.ep, cyc.eo = pose_error_rows(e, t, Tl)
         e_ref = np.zeros(6)
-        pose_error_into(e_ref, ap.pose(ap.s), T)
+        pose_error_rows(e_ref, ap.pose_rows(ap.s), Tl)
         lag = ap.weighted_norm(e_ref)
         if lag > self._lag_max:
             # the arm is held off its line (a solver's extra rows such as collision avoidance,
