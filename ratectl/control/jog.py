@@ -62,8 +62,8 @@ class Jog:
         prev = self.twist
         if prev is not None and self.c > 0.0 and not _same(prev, twist):
             self._block = None  # (a stop planned along the previous twist)
-            nn = float(twist @ twist)
-            ratio = float(prev @ twist) / nn if nn > 0.0 else 0.0
+            nn = float(twist.dot(twist))  # (ndarray.dot: the same product as @, cheaper)
+            ratio = float(prev.dot(twist)) / nn if nn > 0.0 else 0.0
             c = self.c * ratio
             self.c = min(max(c, 0.0), 1.0)
             # (smoothed) ċ likewise, where c is not clipped: a twist that turns a little every
@@ -188,8 +188,8 @@ class JogStage:
         jog = self._jogger
         nonzero = any(twist.tolist())  # (twist.any(), cheaper on 6 floats)
         if jog.twist is None and nonzero:  # a first twist: c from the arm's present motion
-            moving = J @ self._m.qd
-            jog.c = min(max(float(moving @ twist) / float(twist @ twist), 0.0), 1.0)
+            moving = J.dot(self._m.qd)
+            jog.c = min(max(float(moving.dot(twist)) / float(twist.dot(twist)), 0.0), 1.0)
         jog.start(twist)
         if not nonzero:
             jog.c = 0.0

@@ -81,7 +81,7 @@ class ProgressStage:
         if not S[-1] > S[0] * 1e-12:
             return 0.0, 1.0
         c = d.dot(U) / S
-        total = float(c @ c)
+        total = float(c.dot(c))
         return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0)
 
     def sigma_for_watch(self, sigma: Any) -> float | None:

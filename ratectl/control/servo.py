@@ -112,7 +112,7 @@ class Servo:
         t = target.tolist()
         if self._pursuit or not ap.same_target(t):
             if ap.target is None:  # a first target: from the measured pose and the arm's motion
-                ap.retarget(target, T, J @ self._m.qd, J @ self._m.qdd)
+                ap.retarget(target, T, J.dot(self._m.qd), J.dot(self._m.qdd))
             elif self._pursuit:  # from the measured pose, the progress's own motion carried on
                 ap.retarget(target, T, ap.sd * ap.d, ap.sdd * ap.d)
             else:  # a new target: from the reference, which goes on without a jump
@@ -209,7 +209,7 @@ class Servo:
         with the lag, and lines restarted at it would ratchet the progress up until the stop
         from that speed ran the arm past the target."""
         planned = ap.sd * ap.d
-        ap.retarget(target, T, J @ self._m.qd, np.zeros(6))
+        ap.retarget(target, T, J.dot(self._m.qd), np.zeros(6))
         ap.restart(min(ap.sd, max(ap.weighted_dot(planned, ap.d), 0.0)), 0.0)
 
     def _end_bounds(self, ap: StraightApproach, q, target, dt) -> None:
@@ -296,7 +296,7 @@ class Servo:
             cyc.qdd_ff = jl.u * jl.sdd
         qd = jl.u * speed + (q_ref - q) * (1.0 / self._inv_kmax if self._inv_kmax > 0.0 else 0.0)
         cyc.qd = cyc.approach_qd = qd
-        cyc.xi = J @ qd
+        cyc.xi = J.dot(qd)
         cyc.res = SolveResult(qd=qd, achieved=cyc.xi, task_error=np.zeros(6), damping=0.0,
                               sigma_min=float("nan"), method="joint-line")
         cyc.approach = jl.s / jl.L if jl.L > 0.0 else 1.0
@@ -320,7 +320,7 @@ class Servo:
         k = self.gain.tolist()  # (floats: cheaper than two numpy reductions)
         vtol = max(k[0], k[1], k[2]) * self.position_tolerance
         wtol = max(k[3], k[4], k[5]) * self.orientation_tolerance
-        t = (cyc.J @ cyc.qd).tolist()
+        t = cyc.J.dot(cyc.qd).tolist()  # (ndarray.dot: the same product as @, cheaper)
         if not (math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol):
             return
         if within:
@@ -342,7 +342,7 @@ class Servo:
         said = self._unreachable is not None and _same(target, self._unreachable)
         vtol *= 0.1 if said else 0.01
         wtol *= 0.1 if said else 0.01
-        a = (cyc.J @ (cyc.qd + cyc.qdd * self._inv_kmax)).tolist()
+        a = cyc.J.dot(cyc.qd + cyc.qdd * self._inv_kmax).tolist()
         if not (math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol
                 and math.hypot(a[0], a[1], a[2]) <= vtol and math.hypot(a[3], a[4], a[5]) <= wtol):
             return
