@@ -92,7 +92,7 @@ class _LazySigma:
     decided without it (`certainly_at_least`), and every exact value becomes the new
     reference. Without G, J (an array the solver owns) gives it."""
 
-    __slots__ = ("G", "J", "ref", "shape", "entries", "_value")
+    __slots__ = ("G", "J", "ref", "shape", "entries", "_value", "_lower")
 
     def __init__(self, G: np.ndarray | None, J: np.ndarray | None = None,
                  ref: _SigmaReference | None = None, *, shape: tuple[int, ...] | None = None,
@@ -103,6 +103,7 @@ class _LazySigma:
         self.shape = shape
         self.entries = entries
         self._value: float | None = None
+        self._lower: tuple[Any, float] | None = None  # (the reference pair, σ_ref − ‖J − J_ref‖_F)
 
     def value(self) -> float:
         """σ_min (computed once)."""
@@ -133,7 +134,8 @@ class _LazySigma:
         σ_ref − ‖J − J_ref‖_F, with a margin for the rounding of the eigenvalues
         (1e-12·(1 + ‖J_ref‖²_F)/threshold); False means "not decided" (compute the value).
         One distance between two lists of floats instead of an eigen-decomposition: the
-        Jacobian of a control loop moves little between cycles."""
+        Jacobian of a control loop moves little between cycles; a cycle that asks again
+        (another threshold, the same reference) reuses the distance."""
         pair = self.ref.pair if self.ref is not None else None
         entries = self.entries
         if pair is None or entries is None or not threshold > 0.0:
@@ -142,7 +144,13 @@ class _LazySigma:
         if ref_shape != self.shape or not s_ref > threshold:
             return False
         # ‖J − J_ref‖_F: math.dist is the hypot of the differences
-        return s_ref - _dist(entries, ref_entries) >= threshold + 1e-12 * (1.0 + norm2) / threshold
+        memo = self._lower
+        if memo is not None and memo[0] is pair:
+            lower = memo[1]
+        else:
+            lower = s_ref - _dist(entries, ref_entries)
+            self._lower = (pair, lower)
+        return lower >= threshold + 1e-12 * (1.0 + norm2) / threshold
 
 
 @dataclass(frozen=True, slots=True, eq=False)
