@@ -181,25 +181,32 @@ class Servo:
             cyc.qdd_ff = w * ap.sdd if w_rate is None else w * ap.sdd + w_rate * ap.sd
             cyc.approach_qd = cyc.qd
         if caps is not None:
-            moving = ap.sd > 0.0 or speed > 0.0
-            cyc.approach = ap.s / ap.L
-            if ap.blocked:  # the stop is planned before a block (a limit, a singularity)
-                at_block = ap.room_left <= AT_BLOCK and (not moving or _creeping(caps, speed, dt))
-                caps.binding, caps.reason = caps.room_by, caps.room_reason
-                block: str | None = caps.room_reason if at_block else ""
-                if block and self.blocked == "joint-space":
-                    block = self._try_joint_line(cyc, q, target, block)
-                if block is not None:  # at the block, or braking before it
-                    caps.blocked_by = caps.room_by if at_block else ""
-                    self._progress.flags(cyc, q, caps, moving, True)
-                    cyc.blocked = block
-                # (else the arm goes on in joint space: it is not halted at the block, and the
-                # reason says where the line is blocked and what the arm does instead)
-            else:
-                if caps.binding in ("position", "singularity"):
-                    caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
-                self._progress.flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
+            self._line_flags(cyc, q, dt, target, caps, speed)
         return None
+
+    def _line_flags(self, cyc: Cycle, q, dt, target, caps, speed: float) -> None:
+        """The status flags and reasons of a period on the line (`Servo.step`): the bound that
+        holds the progress, or the block the stop is planned before (where the line is
+        blocked at the arm and ``blocked="joint-space"``, the joint line is tried)."""
+        ap = self._straight
+        moving = ap.sd > 0.0 or speed > 0.0
+        cyc.approach = ap.s / ap.L
+        if ap.blocked:  # the stop is planned before a block (a limit, a singularity)
+            at_block = ap.room_left <= AT_BLOCK and (not moving or _creeping(caps, speed, dt))
+            caps.binding, caps.reason = caps.room_by, caps.room_reason
+            block: str | None = caps.room_reason if at_block else ""
+            if block and self.blocked == "joint-space":
+                block = self._try_joint_line(cyc, q, target, block)
+            if block is not None:  # at the block, or braking before it
+                caps.blocked_by = caps.room_by if at_block else ""
+                self._progress.flags(cyc, q, caps, moving, True)
+                cyc.blocked = block
+            # (else the arm goes on in joint space: it is not halted at the block, and the
+            # reason says where the line is blocked and what the arm does instead)
+        else:
+            if caps.binding in ("position", "singularity"):
+                caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
+            self._progress.flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
 
     def _restart_from_arm(self, ap: StraightApproach, target, T, J) -> None:
         """A new line from the arm's pose ``T`` to ``target``, with the commanded motion J q̇
