@@ -109,8 +109,7 @@ class Servo:
                 return self._joint_servo(cyc, q, dt, target, T, J)
             jl.reset()  # a new target: a straight line again, from where the arm is
             ap.reset()
-        t = target.tolist()
-        if self._pursuit or not ap.same_target(t):
+        if not ap.same_target(t := target.tolist()) or self._pursuit:
             if ap.target is None:  # a first target: from the measured pose and the arm's motion
                 ap.retarget(target, T, J.dot(self._m.qd), J.dot(self._m.qdd))
             elif self._pursuit:  # from the measured pose, the progress's own motion carried on
@@ -119,9 +118,8 @@ class Servo:
                 ap.retarget_from_reference(target, dt=dt, rows=t)
         else:
             ap.hold_target()
-        Tl = T.tolist()
         e = cyc.e = np.zeros(6)
-        cyc.ep, cyc.eo = pose_error_rows(e, t, Tl)
+        cyc.ep, cyc.eo = pose_error_rows(e, t, Tl := T.tolist())  # (the rows of both poses, once)
         e_ref = np.zeros(6)
         pose_error_rows(e_ref, ap.pose_rows(ap.s), Tl)
         lag = ap.weighted_norm(e_ref)
@@ -154,8 +152,7 @@ class Servo:
                                   exact=lambda q2, share=True: pr.exact_direction(q2, ap.d, (q, J),
                                                                                   share=share),
                                   ahead=lambda: ap.stopping_progress(dt))
-            # ẇ, for the smoother
-            w_rate = None if ap.w_prev is None or self.filter is None else (w - ap.w_prev) / dt
+            w_rate = None if ap.w_prev is None or self.filter is None else (w - ap.w_prev) / dt  # ẇ
             # (the room ahead is measured from the arm; the reference leads it along the line)
             speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max),
                                lead=ap.weighted_dot(e_ref, ap.d))
@@ -181,32 +178,25 @@ class Servo:
             cyc.qdd_ff = w * ap.sdd if w_rate is None else w * ap.sdd + w_rate * ap.sd
             cyc.approach_qd = cyc.qd
         if caps is not None:
-            self._line_flags(cyc, q, dt, target, caps, speed)
+            moving = ap.sd > 0.0 or speed > 0.0
+            cyc.approach = ap.s / ap.L
+            if ap.blocked:  # the stop is planned before a block (a limit, a singularity)
+                at_block = ap.room_left <= AT_BLOCK and (not moving or _creeping(caps, speed, dt))
+                caps.binding, caps.reason = caps.room_by, caps.room_reason
+                block: str | None = caps.room_reason if at_block else ""
+                if block and self.blocked == "joint-space":
+                    block = self._try_joint_line(cyc, q, target, block)
+                if block is not None:  # at the block, or braking before it
+                    caps.blocked_by = caps.room_by if at_block else ""
+                    self._progress.flags(cyc, q, caps, moving, True)
+                    cyc.blocked = block
+                # (else the arm goes on in joint space: it is not halted at the block, and the
+                # reason says where the line is blocked and what the arm does instead)
+            else:
+                if caps.binding in ("position", "singularity"):
+                    caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
+                self._progress.flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
         return None
-
-    def _line_flags(self, cyc: Cycle, q, dt, target, caps, speed: float) -> None:
-        """The status flags and reasons of a period on the line (`Servo.step`): the bound that
-        holds the progress, or the block the stop is planned before (where the line is
-        blocked at the arm and ``blocked="joint-space"``, the joint line is tried)."""
-        ap = self._straight
-        moving = ap.sd > 0.0 or speed > 0.0
-        cyc.approach = ap.s / ap.L
-        if ap.blocked:  # the stop is planned before a block (a limit, a singularity)
-            at_block = ap.room_left <= AT_BLOCK and (not moving or _creeping(caps, speed, dt))
-            caps.binding, caps.reason = caps.room_by, caps.room_reason
-            block: str | None = caps.room_reason if at_block else ""
-            if block and self.blocked == "joint-space":
-                block = self._try_joint_line(cyc, q, target, block)
-            if block is not None:  # at the block, or braking before it
-                caps.blocked_by = caps.room_by if at_block else ""
-                self._progress.flags(cyc, q, caps, moving, True)
-                cyc.blocked = block
-            # (else the arm goes on in joint space: it is not halted at the block, and the
-            # reason says where the line is blocked and what the arm does instead)
-        else:
-            if caps.binding in ("position", "singularity"):
-                caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
-            self._progress.flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
 
     def _restart_from_arm(self, ap: StraightApproach, target, T, J) -> None:
         """A new line from the arm's pose ``T`` to ``target``, with the commanded motion J q̇
