@@ -349,8 +349,13 @@ def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray
     3-vectors (this runs every control cycle); the rotational part is
     `rotation_error_rows`, log(R_d Rᵀ).
     """
-    d = T_desired.tolist()
-    a = T_actual.tolist()
+    return pose_error_rows(out, T_desired.tolist(), T_actual.tolist())
+
+
+def pose_error_rows(out: np.ndarray, d: list[list[float]], a: list[list[float]]) -> tuple[float, float]:
+    """`pose_error_into` of two poses given as their first three rows of floats ([R | p],
+    a pose's ``tolist()``), written into ``out`` (6,): for a caller that has the rows
+    already (a control cycle reads a pose's rows once)."""
     ex = d[0][3] - a[0][3]
     ey = d[1][3] - a[1][3]
     ez = d[2][3] - a[2][3]

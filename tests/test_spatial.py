@@ -161,6 +161,23 @@ def test_rotation_error_rows_is_the_pose_errors_rotation(axis, angle, axis2, ang
     assert sp.rotation_error_rows(Td.tolist(), Rd.tolist()) == (0.0, 0.0, 0.0, 0.0)
 
 
+@settings(max_examples=200, deadline=None)
+@given(vec3, st.floats(0.0, math.pi), vec3, st.floats(0.0, math.pi), vec3)
+def test_pose_error_rows_is_the_pose_error(axis, angle, axis2, angle2, shift):
+    """pose_error_rows on a pose's first three rows of floats ([R | p]) writes the pose error
+    e = [p_d − p; log(R_d Rᵀ)] and returns its two norms, as pose_error / pose_error_into."""
+    Td, T = np.eye(4), np.eye(4)
+    Td[:3, :3] = sp.so3_exp(angle * np.array(axis) / np.linalg.norm(axis))
+    T[:3, :3] = sp.so3_exp(angle2 * np.array(axis2) / np.linalg.norm(axis2))
+    Td[:3, 3] = [0.3, -0.2, 0.5]
+    T[:3, 3] = np.array(shift) * 0.1
+    e, e_into = np.zeros(6), np.zeros(6)
+    ep, eo = sp.pose_error_rows(e, Td.tolist()[:3], T.tolist()[:3])
+    assert np.allclose(e, sp.pose_error(Td, T), atol=1e-9, rtol=0)
+    assert (ep, eo) == sp.pose_error_into(e_into, Td, T) and np.array_equal(e, e_into)
+    assert ep == pytest.approx(np.linalg.norm(Td[:3, 3] - T[:3, 3]), abs=1e-12)
+
+
 @settings(max_examples=300, deadline=None)
 @given(vec3, st.floats(0.0, math.pi), st.integers(0, 15), st.sampled_from([0.0, 1e-7, 2e-6, 1e-3, -1.0]))
 def test_rigid_transform_defect_fast_path_agrees_with_the_full_check(axis, angle, entry, delta):

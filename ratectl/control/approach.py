@@ -260,7 +260,13 @@ class StraightApproach(Progress):
         else:
             self.restart()
 
-    def retarget_from_reference(self, target: np.ndarray, *, dt: float | None = None) -> None:
+    def same_target(self, rows: list[list[float]]) -> bool:
+        """Whether the segment ends at the target whose rows of floats (its ``tolist()``) are
+        ``rows``, entry for entry (``np.array_equal`` of the two poses)."""
+        return self.target is not None and rows == self._t
+
+    def retarget_from_reference(self, target: np.ndarray, *, dt: float | None = None,
+                                rows: list[list[float]] | None = None) -> None:
         """A new segment from the present reference pose T(s) to ``target``: the reference
         goes on without a jump, its motion (ṡ, s̈ along the old direction d) projected on
         the new direction d′ as ṡ′ = ṡ⟨d, d′⟩_W, s̈′ = s̈⟨d, d′⟩_W (never backwards).
@@ -271,9 +277,10 @@ class StraightApproach(Progress):
         arrives at the end of the new segment (``end_speed``), so that a target that moves
         is met moving instead of being chased from behind by a reference that plans to rest
         on it. A target that jumps (a switch) is not moving: v counts only when two
-        successive estimates agree within 25 %, and the smaller is taken."""
+        successive estimates agree within 25 %, and the smaller is taken. ``rows``: the
+        target's rows of floats, when the caller has them."""
         d_old, sd, sdd = self._d, self.sd, self.sdd
-        t = target.tolist()
+        t = target.tolist() if rows is None else rows
         tau = self._target_rate(t, dt) if dt is not None else None
         p, R = self._pose_rows(self.s)
         self._segment(target, p, R, t)
@@ -348,6 +355,11 @@ class StraightApproach(Progress):
         return p, [[e0 * a0 + e1 * b0 + e2 * c0, e0 * a1 + e1 * b1 + e2 * c1, e0 * a2 + e1 * b2 + e2 * c2],
                    [g0 * a0 + g1 * b0 + g2 * c0, g0 * a1 + g1 * b1 + g2 * c1, g0 * a2 + g1 * b2 + g2 * c2],
                    [h0 * a0 + h1 * b0 + h2 * c0, h0 * a1 + h1 * b1 + h2 * c1, h0 * a2 + h1 * b2 + h2 * c2]]
+
+    def pose_rows(self, s: float) -> list[list[float]]:
+        """The first three rows [R | p] of T(s) as floats (`pose` without the array)."""
+        p, (a, b, c) = self._pose_rows(s)
+        return [[a[0], a[1], a[2], p[0]], [b[0], b[1], b[2], p[1]], [c[0], c[1], c[2], p[2]]]
 
     def pose(self, s: float) -> np.ndarray:
         """T(s), the reference pose at progress ``s`` (4×4; the same array for the same s

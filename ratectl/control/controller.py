@@ -245,7 +245,7 @@ class ResolvedRateController:
             return halt
         if frame == "tool" and twist is not None:  # tool axes → base axes: [R v; R ω]
             R = self.chain.fk(q)[:3, :3]
-            twist = np.concatenate([R @ twist[:3], R @ twist[3:]])
+            twist = np.concatenate([R.dot(twist[:3]), R.dot(twist[3:])])
         servo = target is not None and qd_ff is None and (twist is None or not twist.any())
         cyc = Cycle()
         if servo and self._straight_servo:

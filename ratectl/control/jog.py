@@ -62,8 +62,8 @@ class Jog:
         prev = self.twist
         if prev is not None and self.c > 0.0 and not _same(prev, twist):
             self._block = None  # (a stop planned along the previous twist)
-            nn = float(twist @ twist)
-            ratio = float(prev @ twist) / nn if nn > 0.0 else 0.0
+            nn = float(twist.dot(twist))  # (ndarray.dot: the same product as @, cheaper)
+            ratio = float(prev.dot(twist)) / nn if nn > 0.0 else 0.0
             c = self.c * ratio
             self.c = min(max(c, 0.0), 1.0)
             # (smoothed) ċ likewise, where c is not clipped: a twist that turns a little every
@@ -166,28 +166,33 @@ class JogStage:
         self._solve = solve
         self._halt = halt
         self._jogger = Jog()
+        self._idle = True  # the jog is as `reset` leaves it (a servo cycle resets it only then)
         # with smoothing (jerk-limited progress bounds) c is jerk-limited and the command a
         # reference with its acceleration, which the filter meets without turning it
         self._smoothed = bool(np.all(np.isfinite(progress.bounds.jmax)))
 
     def reset(self) -> None:
         """No jog in progress: the next twist starts from the arm's motion."""
-        self._jogger.reset()
+        if not self._idle:  # (a cycle of another mode calls this every period)
+            self._jogger.reset()
+            self._idle = True
 
     def step(self, cyc: Cycle, q, dt, twist) -> Command | None:
         """One period of jogging (`Jog`): q̇ = c·J⁺ξ with c ∈ [0, 1] within the joint limits mapped onto the
         commanded direction (`ProgressLimits`): the tool moves along ξ or slows down along it,
         never sideways."""
+        self._idle = False
         J = cyc.J = self.chain.jacobian(q)
         cyc.e = shared_zeros(6)
         cyc.ep = cyc.eo = 0.0
         cyc.target = False
         jog = self._jogger
-        if jog.twist is None and twist.any():  # a first twist: c from the arm's present motion
-            moving = J @ self._m.qd
-            jog.c = min(max(float(moving @ twist) / float(twist @ twist), 0.0), 1.0)
+        nonzero = any(twist.tolist())  # (twist.any(), cheaper on 6 floats)
+        if jog.twist is None and nonzero:  # a first twist: c from the arm's present motion
+            moving = J.dot(self._m.qd)
+            jog.c = min(max(float(moving.dot(twist)) / float(twist.dot(twist)), 0.0), 1.0)
         jog.start(twist)
-        if not twist.any():
+        if not nonzero:
             jog.c = 0.0
             cyc.xi = twist.copy()
             return self._solve(cyc, q, dt, None)
@@ -200,14 +205,14 @@ class JogStage:
         if not _finite_sum(w):
             return self._halt(q, dt, "solver returned a non-finite q̇")
         wp = jog.w_prev
-        w_prime = (w - wp) / (jog.c * dt) if (wp is not None and jog.c > 0.0) else None
+        dw = None if wp is None else w - wp
+        w_prime = dw / (jog.c * dt) if (dw is not None and jog.c > 0.0) else None
         pr = self._progress
         caps = pr.bounds.caps(q, w, dt=dt, sigma=pr.sigma_for_watch(sig_w), w_prime=w_prime,
                               q_lead=self._m.q_lead, ahead=lambda a, j: jog.stopping_progress(dt, a, j),
                               exact=lambda q2, share=True: pr.exact_direction(q2, twist, (q, J), share=share))
         c_prev = jog.c
         c = jog.advance_smoothly(caps, dt) if self._smoothed else jog.advance(caps, dt)
-        w_rate = (w - wp) / dt if wp is not None else None
         jog.w_prev = w
         cyc.xi = twist * c
         if self._adds_rows:
@@ -218,7 +223,7 @@ class JogStage:
             cyc.res = pr.direction_result(J, twist, w, sig_w, damping_w)
             cyc.qd = w * c
             if self._smoothed:  # the reference's acceleration ċ·w + c·ẇ, met by the filter
-                cyc.qdd_ff = w * jog.cd if w_rate is None else w * jog.cd + w_rate * c
+                cyc.qdd_ff = w * jog.cd if dw is None else w * jog.cd + dw / dt * c
                 cyc.approach_qd = cyc.qd
             cyc.active = []
             cyc.scale = 1.0

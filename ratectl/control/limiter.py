@@ -82,7 +82,7 @@ class Limiter:
         self._amax_f2 = np.concatenate([amax_f, amax_f])
         self.plo = np.where(np.isfinite(lim.lower), lim.lower, -big)
         self.phi = np.where(np.isfinite(lim.upper), lim.upper, big)
-        self._plo_l, self._phi_l = self.plo.tolist(), self.phi.tolist()
+        self.plo_l, self.phi_l = self.plo.tolist(), self.phi.tolist()  # (as floats)
         vf = np.where(np.isfinite(lim.vmax), lim.vmax, big)
         # distance within which a joint at full speed may need to brake (per side, so a
         # one-sided limit is watched too): v²/(2a), 0 without an acceleration limit; the
@@ -178,8 +178,8 @@ class Limiter:
             self._proom_dt = dt
         # (floats: a hot path) the room on either side, hi − x and x − lo, below the braking room
         ql = q.tolist()
-        return (any(map(_lt, map(_sub, self._phi_l, ql), self._proom_l))
-                or any(map(_lt, map(_sub, ql, self._plo_l), self._proom_l)))
+        return (any(map(_lt, map(_sub, self.phi_l, ql), self._proom_l))
+                or any(map(_lt, map(_sub, ql, self.plo_l), self._proom_l)))
 
     def _limit_position(self, cyc: Cycle, q, dt) -> None:
         """Clip each joint's q̇ to the speed from which it can still stop before its limits
@@ -259,7 +259,7 @@ class Limiter:
         if not conflicts:
             # a joint beyond a limit? (on Python floats: cheaper than two numpy comparisons)
             ql = q.tolist()
-            if not (any(map(_gt, ql, self._phi_l)) or any(map(_lt, ql, self._plo_l))):
+            if not (any(map(_gt, ql, self.phi_l)) or any(map(_lt, ql, self.plo_l))):
                 return
         hard = np.zeros(self.n, dtype=bool)
         for joint, kinds in conflicts:

@@ -188,6 +188,7 @@ class ProgressLimits:
         self._l_slack = floats(np.where(np.isfinite(self.vmax), self.vmax, 0.0))  # one period at vmax
         self._l_jerk = ((floats(np.where(fin_j, share_a, 1.0)), floats(np.where(fin_j, share_j, 1e300)))
                         if jerk_limited else None)
+        self._reasons: dict[tuple[int, bool, bool], str] = {}  # `_limit_reason`'s sentences
 
     def name(self, i: int) -> str:
         """The chain's name of joint ``i`` (quoted), for reasons."""
@@ -225,14 +226,24 @@ class ProgressLimits:
         speed = accel = jerk = inf
         jv = -1
         vcap, share_a, share_j = self._l_vcap, self._l_share_a, self._l_share_j
-        invs = []
+        # position limits: joints moving toward a limit brake in time at the share of amax
+        # (in the same pass over the joints as the velocity and acceleration bounds)
+        has_p = self._has_p
+        if has_p:
+            ql = q.tolist()
+            ll = q_lead.tolist() if q_lead is not None else None
+            lower, upper, two_over_a = self._l_lower, self._l_upper, self._l_two_over_a
+            jl = self._l_jerk
+            slack = self._l_slack
+        p_min = p_room = inf
+        jp = p_joint = -1
+        moving = False
         for i, wi in enumerate(wl):
             awi = wi if wi >= 0.0 else -wi
-            if not awi > _TINY_W:
-                invs.append(0.0)
+            if not awi > _TINY_W:  # the joint does not move along the direction
                 continue
+            moving = True
             inv = 1.0 / awi
-            invs.append(inv)
             v = vcap[i] * inv
             if v < speed:
                 speed, jv = v, i
@@ -242,7 +253,36 @@ class ProgressLimits:
             x = share_j[i] * inv
             if x < jerk:
                 jerk = x
-        if not any(invs):  # no joint moves along the direction
+            if not has_p:
+                continue
+            # the room ahead of whichever of q and q_lead is nearer the limit
+            a = ql[i]
+            if wi > 0.0:
+                if ll is not None:
+                    b = ll[i]
+                    a = b if b > a else a
+                room = upper[i] - a
+            else:
+                if ll is not None:
+                    b = ll[i]
+                    a = b if b < a else a
+                room = a - lower[i]
+            if not -inf < room < inf:
+                continue
+            # the speed bound stops _LIMIT_MARGIN short (a jog of an arm that lags its
+            # command then does not press a joint onto its limit); the room ahead of an
+            # approach ends at the limit itself (a target may lie on it)
+            D = room - _LIMIT_MARGIN
+            b = braking_speed_any_dt_scalar(D, dt, two_over_a[i])
+            if jl is not None:  # and the jerk-limited stop fits as well
+                b = min(b, braking_speed_scalar(max(D - slack[i] * dt, 0.0), jl[0][i], jl[1][i]))
+            x = (b if b > 0.0 else 0.0) * inv
+            if x < p_min:
+                p_min, jp = x, i
+            x = (room if room > 0.0 else 0.0) * inv
+            if x < p_room:
+                p_room, p_joint = x, i
+        if not moving:  # no joint moves along the direction
             return ProgressCaps(speed=_UNBOUNDED, accel=_UNBOUNDED, jerk=_UNBOUNDED)
         binding, joint = ("velocity", jv) if speed < inf else ("", -1)
         if w_prime is not None:
@@ -259,45 +299,16 @@ class ProgressLimits:
         free_speed = speed
         blocked_by = ""
         reason = ""
-        p_room, p_joint = inf, -1
-        # position limits: joints moving toward a limit brake in time at the share of amax
-        if self._has_p:
-            ql = q.tolist()
-            if q_lead is not None:  # the room ahead of whichever is nearer the limit
-                ql = [max(a, b) if wi > 0.0 else min(a, b)
-                      for a, b, wi in zip(ql, q_lead.tolist(), wl, strict=True)]
-            lower, upper, two_over_a = self._l_lower, self._l_upper, self._l_two_over_a
-            jl = self._l_jerk
-            p_min, jp = inf, -1
-            for i, inv in enumerate(invs):
-                if inv == 0.0:
-                    continue
-                room = upper[i] - ql[i] if wl[i] > 0.0 else ql[i] - lower[i]
-                if not -inf < room < inf:
-                    continue
-                # the speed bound stops _LIMIT_MARGIN short (a jog of an arm that lags its
-                # command then does not press a joint onto its limit); the room ahead of an
-                # approach ends at the limit itself (a target may lie on it)
-                D = room - _LIMIT_MARGIN
-                b = braking_speed_any_dt_scalar(D, dt, two_over_a[i])
-                if jl is not None:  # and the jerk-limited stop fits as well
-                    b = min(b, braking_speed_scalar(max(D - self._l_slack[i] * dt, 0.0), jl[0][i], jl[1][i]))
-                x = (b if b > 0.0 else 0.0) * inv
-                if x < p_min:
-                    p_min, jp = x, i
-                x = (room if room > 0.0 else 0.0) * inv
-                if x < p_room:
-                    p_room, p_joint = x, i
-            if p_min < speed:
-                speed, binding, joint = p_min, "position", jp
-                blocked_by = "position" if speed <= 0.0 else ""
-                reason = self._limit_reason(w, jp, at=speed <= 0.0)
+        if p_min < speed:
+            speed, binding, joint = p_min, "position", jp
+            blocked_by = "position" if speed <= 0.0 else ""
+            reason = self._limit_reason(wl, jp, at=speed <= 0.0)
         caps = ProgressCaps(speed=speed, accel=min(accel, _UNBOUNDED), jerk=min(jerk, _UNBOUNDED),
                             binding=binding, blocked_by=blocked_by, joint=joint, reason=reason,
                             free_speed=free_speed)
         if p_room < inf:
             caps.room, caps.room_by = p_room, "position"
-            caps.room_reason = self._limit_reason(w, p_joint, at=p_room <= 0.0)
+            caps.room_reason = self._limit_reason(wl, p_joint, at=p_room <= 0.0)
         if exact is not None and sigma is not None and sigma < self.watch_sigma:
             self._singularity(caps, q, w, exact, ahead)
         return caps
@@ -382,11 +393,17 @@ class ProgressLimits:
         out.accel = out.jerk = math.inf  # (no block within D)
         return out
 
-    def _limit_reason(self, w: np.ndarray, i: int, *, at: bool) -> str:
-        """The sentence for joint ``i`` moving toward the limit on the side of w_i."""
-        side = "upper" if w[i] > 0.0 else "lower"
-        return (f"joint {self.name(i)} is at its {side} limit" if at
-                else f"joint {self.name(i)} braking toward its {side} limit")
+    def _limit_reason(self, w: list[float], i: int, *, at: bool) -> str:
+        """The sentence for joint ``i`` moving toward the limit on the side of w_i (``w``:
+        the direction's joint velocities as floats); each sentence is made once, on its
+        first use, and kept (`caps` names a joint's room every period)."""
+        key = (i, w[i] > 0.0, at)
+        text = self._reasons.get(key)
+        if text is None:
+            side = "upper" if key[1] else "lower"
+            text = self._reasons[key] = (f"joint {self.name(i)} is at its {side} limit" if at
+                                         else f"joint {self.name(i)} braking toward its {side} limit")
+        return text
 
     def _singularity(self, caps: ProgressCaps, q, w, exact, ahead=None) -> None:
         """The singularity bound (see the module docstring) applied to ``caps``: only for a

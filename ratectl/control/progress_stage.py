@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..singularity import analyze
-from ..solvers.base import Solver, SolveResult, sigma_at_least, svd_values, thin_svd
+from ..solvers.base import Solver, SolveResult, direction_result, sigma_at_least, svd_values, thin_svd
 from .cycle import Cycle
 from .progress import ProgressLimits
 
@@ -45,6 +45,7 @@ class ProgressStage:
         self.bounds = ProgressLimits(chain, limits, jmax=jmax, accel_share=_SHARE, stop_sigma=stop_sigma,
                                      watch_sigma=max(4.0 * stop_sigma, 1e-6))
         self.singular_kind: str | None = None
+        self._method = str(getattr(solver, "method", "solver"))
         self._solve_direction = (solver.solve_direction if isinstance(solver, Solver)
                                  else lambda J, d, **kw: _generic_direction(solver, J, d, **kw))
 
@@ -61,9 +62,7 @@ class ProgressStage:
         solver gave one): q̇ = w, achieved J w, task error d − J w."""
         if isinstance(sigma, SolveResult):
             return sigma
-        achieved = J.dot(w)
-        return SolveResult(qd=w.copy(), achieved=achieved, task_error=d - achieved, damping=damping,
-                           sigma_min=sigma, method=str(getattr(self.solver, "method", "solver")))
+        return direction_result(J, d, w, damping=damping, sigma_min=sigma, method=self._method)
 
     def exact_direction(self, q: np.ndarray, d: np.ndarray, J_at: tuple | None = None, *,
                         share: bool = True) -> tuple[float, float, np.ndarray | None]:
@@ -84,7 +83,7 @@ class ProgressStage:
         if not S[-1] > S[0] * 1e-12:
             return 0.0, 1.0, None
         c = d.dot(U) / S
-        total = float(c @ c)
+        total = float(c.dot(c))
         return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0), c.dot(Vt)
 
     def sigma_for_watch(self, sigma: Any) -> float | None:

@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import RatectlError, SingularityError
 from ..solvers.base import SolveResult, result_with_qd
 from ..solvers.ik import ik_iterate
-from ..spatial import pose_error_into
+from ..spatial import pose_error_into, pose_error_rows
 from .approach import AT_BLOCK, JointLine, StraightApproach
 from .cycle import Cycle, Motion, _finite_sum, _same
 
@@ -83,6 +83,7 @@ class Servo:
         self._ik_tried: np.ndarray | None = None  # the last target an IK alternative was sought for
         self._line_blocked = ""
         self._lag_max = _LAG_MAX
+        self._idle = False  # the approach is as `forget` leaves it (a jog cycle forgets only then)
         self.reset()
 
     def reset(self) -> None:
@@ -97,6 +98,7 @@ class Servo:
         ξ = ṡ̄·d + K·e_ref: the mean progress speed of the period along the direction's own
         answer w (`Solver.solve_direction`, exact where J is regular) plus the solved feedback
         on the error to the reference pose T(s), both without the limits (the limiter's)."""
+        self._idle = False
         T, J = self.chain.fk_jacobian(q)
         cyc.J = J
         cyc.target = True
@@ -107,19 +109,19 @@ class Servo:
                 return self._joint_servo(cyc, q, dt, target, T, J)
             jl.reset()  # a new target: a straight line again, from where the arm is
             ap.reset()
-        if ap.target is None or self._pursuit or not _same(target, ap.target):
+        if not ap.same_target(t := target.tolist()) or self._pursuit:
             if ap.target is None:  # a first target: from the measured pose and the arm's motion
-                ap.retarget(target, T, J @ self._m.qd, J @ self._m.qdd)
+                ap.retarget(target, T, J.dot(self._m.qd), J.dot(self._m.qdd))
             elif self._pursuit:  # from the measured pose, the progress's own motion carried on
                 ap.retarget(target, T, ap.sd * ap.d, ap.sdd * ap.d)
             else:  # a new target: from the reference, which goes on without a jump
-                ap.retarget_from_reference(target, dt=dt)
+                ap.retarget_from_reference(target, dt=dt, rows=t)
         else:
             ap.hold_target()
         e = cyc.e = np.zeros(6)
-        cyc.ep, cyc.eo = pose_error_into(e, target, T)
+        cyc.ep, cyc.eo = pose_error_rows(e, t, Tl := T.tolist())  # (the rows of both poses, once)
         e_ref = np.zeros(6)
-        pose_error_into(e_ref, ap.pose(ap.s), T)
+        pose_error_rows(e_ref, ap.pose_rows(ap.s), Tl)
         lag = ap.weighted_norm(e_ref)
         if lag > self._lag_max:
             # the arm is held off its line (a solver's extra rows such as collision avoidance,
@@ -150,7 +152,7 @@ class Servo:
                                   exact=lambda q2, share=True: pr.exact_direction(q2, ap.d, (q, J),
                                                                                   share=share),
                                   ahead=lambda a, j: ap.stopping_progress(dt, a, j))
-            w_rate = None if ap.w_prev is None else (w - ap.w_prev) / dt  # ẇ, for the smoother
+            w_rate = None if ap.w_prev is None or self.filter is None else (w - ap.w_prev) / dt  # ẇ
             # (the room ahead is measured from the arm; the reference leads it along the line)
             speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max),
                                lead=ap.weighted_dot(e_ref, ap.d))
@@ -204,7 +206,7 @@ class Servo:
         with the lag, and lines restarted at it would ratchet the progress up until the stop
         from that speed ran the arm past the target."""
         planned = ap.sd * ap.d
-        ap.retarget(target, T, J @ self._m.qd, np.zeros(6))
+        ap.retarget(target, T, J.dot(self._m.qd), np.zeros(6))
         ap.restart(min(ap.sd, max(ap.weighted_dot(planned, ap.d), 0.0)), 0.0)
 
     def _end_bounds(self, ap: StraightApproach, q, target, dt) -> None:
@@ -230,9 +232,12 @@ class Servo:
 
     def forget(self) -> None:
         """No approach in progress: the next target starts a new one from where the arm is."""
+        if self._idle:  # (a cycle of another mode calls this every period)
+            return
         self._straight.reset()
         self._joint_line.reset()
         self._ik_tried = None
+        self._idle = True
 
     def _try_joint_line(self, cyc: Cycle, q, target, block: str) -> str | None:
         """The straight line is blocked where the arm stands (by ``block``, a sentence): the
@@ -288,7 +293,7 @@ class Servo:
             cyc.qdd_ff = jl.u * jl.sdd
         qd = jl.u * speed + (q_ref - q) * (1.0 / self._inv_kmax if self._inv_kmax > 0.0 else 0.0)
         cyc.qd = cyc.approach_qd = qd
-        cyc.xi = J @ qd
+        cyc.xi = J.dot(qd)
         cyc.res = SolveResult(qd=qd, achieved=cyc.xi, task_error=np.zeros(6), damping=0.0,
                               sigma_min=float("nan"), method="joint-line")
         cyc.approach = jl.s / jl.L if jl.L > 0.0 else 1.0
@@ -303,13 +308,18 @@ class Servo:
         tolerance). Unreachable: outside the tolerances with J q̇, and J (q̇ + q̈/K) one
         time constant ahead, below 1 % of that: the arm has stopped short, no motion within
         the limits lowers the error from here."""
-        K = self.gain
-        vtol = float(K[:3].max()) * self.position_tolerance
-        wtol = float(K[3:].max()) * self.orientation_tolerance
-        twist = cyc.J @ cyc.qd
-        if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol):
-            return
         within = cyc.ep <= self.position_tolerance and cyc.eo <= self.orientation_tolerance
+        ap = self._straight
+        if not (within or cyc.blocked) and (
+                self._joint_line.target is not None  # on its way in joint space (see below)
+                or (not self._pursuit and ap.target is not None and ap.s < ap.L and ap.sdd > 0.0)):
+            return  # (neither status, whatever the twist: not computed)
+        k = self.gain.tolist()  # (floats: cheaper than two numpy reductions)
+        vtol = max(k[0], k[1], k[2]) * self.position_tolerance
+        wtol = max(k[3], k[4], k[5]) * self.orientation_tolerance
+        t = cyc.J.dot(cyc.qd).tolist()  # (ndarray.dot: the same product as @, cheaper)
+        if not (math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol):
+            return
         if within:
             cyc.flags.insert(0, "target-reached")
             return
@@ -320,20 +330,18 @@ class Servo:
             cyc.reasons.insert(0, f"stopped {cyc.ep * 1e3:.3g} mm / {math.degrees(cyc.eo):.3g}° from the "
                                f"target: the straight line to it is blocked: {cyc.blocked}")
             return
-        if self._joint_line.target is not None:
-            return  # on its way in joint space (taken this period, where the line is blocked)
-        ap = self._straight
-        if not self._pursuit and ap.target is not None and ap.s < ap.L and ap.sdd > 0.0:
-            return  # the line's progress speeds up: on its way (from rest, its first periods are slow)
+        # (here the arm is on its line or at its end: not in joint space, which is on its way,
+        # taken this period where the line is blocked; nor on a line whose progress speeds up,
+        # from rest its first periods are slow: on its way too)
         # stopped short: below 1 % of that, now and one time constant ahead (an arm that
         # creeps toward a singular target, damped, is still on its way); once said for this
         # target, below 10 % (the last settling does not flicker back to "regular")
         said = self._unreachable is not None and _same(target, self._unreachable)
         vtol *= 0.1 if said else 0.01
         wtol *= 0.1 if said else 0.01
-        ahead = cyc.J @ (cyc.qd + cyc.qdd * self._inv_kmax)
-        if not (math.hypot(*twist[:3].tolist()) <= vtol and math.hypot(*twist[3:].tolist()) <= wtol
-                and math.hypot(*ahead[:3].tolist()) <= vtol and math.hypot(*ahead[3:].tolist()) <= wtol):
+        a = cyc.J.dot(cyc.qd + cyc.qdd * self._inv_kmax).tolist()
+        if not (math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol
+                and math.hypot(a[0], a[1], a[2]) <= vtol and math.hypot(a[3], a[4], a[5]) <= wtol):
             return
         if not said:
             self._unreachable = target.copy()

@@ -11,6 +11,7 @@ controller's `Limiter` and the filter's own limits.
 
 from __future__ import annotations
 
+from operator import le as _le
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -125,11 +126,18 @@ class SmoothGuard:
         up (``Command.qdd``), and the status is ``limit-recovery``. The later periods are
         then jerk-limited again."""
         q_next = cyc.q_next
+        braking = cyc.braking is not None and cyc.braking.any()
+        if not braking:
+            # (floats, the common case: every joint ends this period within its limits, where
+            # none is beyond the test below; NaN fails these comparisons and goes on to it)
+            ql = q_next.tolist()
+            if all(map(_le, self._lim.plo_l, ql)) and all(map(_le, ql, self._lim.phi_l)):
+                return
         tol = 1e-12 * (1.0 + np.abs(q))
         out = (q_next > np.maximum(self._lim.phi, q) + tol) | (q_next < np.minimum(self._lim.plo, q) - tol)
         f = self.filter
         assert f is not None
-        if cyc.braking is not None and cyc.braking.any():
+        if braking:
             # a joint the guard brakes: is it already inside its stopping distance? (for the
             # others even the guard's look-ahead stop fits, so the stop from now fits too)
             out |= self._inside_stopping_distance(q, f, cyc.braking)

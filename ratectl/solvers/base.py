@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import lapack as _lapack
 
+from ..arrays import shared_zeros
 from ..checks import positive_number as _positive  # noqa: F401  (the solvers import it from here)
 from ..checks import real_array as _real_array
 from ..errors import InputError, RatectlError, SolverError
@@ -23,7 +24,7 @@ if TYPE_CHECKING:
     from ..model.chain import Chain
 
 __all__ = ['SolveResult', 'Solver', 'POSITION_ONLY', 'ORIENTATION_ONLY', 'VELOCITY_POLICIES',
-           'solver_declares', 'validated_solve', 'validated_solve_generic']
+           'solver_declares', 'validated_solve', 'validated_solve_generic', 'direction_result']
 
 
 VELOCITY_POLICIES = ("scale", "clip", None)
@@ -91,7 +92,7 @@ class _LazySigma:
     decided without it (`certainly_at_least`), and every exact value becomes the new
     reference. Without G, J (an array the solver owns) gives it."""
 
-    __slots__ = ("G", "J", "ref", "shape", "entries", "_value")
+    __slots__ = ("G", "J", "ref", "shape", "entries", "_value", "_lower")
 
     def __init__(self, G: np.ndarray | None, J: np.ndarray | None = None,
                  ref: _SigmaReference | None = None, *, shape: tuple[int, ...] | None = None,
@@ -102,6 +103,7 @@ class _LazySigma:
         self.shape = shape
         self.entries = entries
         self._value: float | None = None
+        self._lower: tuple[Any, float] | None = None  # (the reference pair, σ_ref − ‖J − J_ref‖_F)
 
     def value(self) -> float:
         """σ_min (computed once)."""
@@ -132,7 +134,8 @@ class _LazySigma:
         σ_ref − ‖J − J_ref‖_F, with a margin for the rounding of the eigenvalues
         (1e-12·(1 + ‖J_ref‖²_F)/threshold); False means "not decided" (compute the value).
         One distance between two lists of floats instead of an eigen-decomposition: the
-        Jacobian of a control loop moves little between cycles."""
+        Jacobian of a control loop moves little between cycles; a cycle that asks again
+        (another threshold, the same reference) reuses the distance."""
         pair = self.ref.pair if self.ref is not None else None
         entries = self.entries
         if pair is None or entries is None or not threshold > 0.0:
@@ -141,7 +144,13 @@ class _LazySigma:
         if ref_shape != self.shape or not s_ref > threshold:
             return False
         # ‖J − J_ref‖_F: math.dist is the hypot of the differences
-        return s_ref - _dist(entries, ref_entries) >= threshold + 1e-12 * (1.0 + norm2) / threshold
+        memo = self._lower
+        if memo is not None and memo[0] is pair:
+            lower = memo[1]
+        else:
+            lower = s_ref - _dist(entries, ref_entries)
+            self._lower = (pair, lower)
+        return lower >= threshold + 1e-12 * (1.0 + norm2) / threshold
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -299,6 +308,20 @@ def result_with_qd(res: SolveResult, J: np.ndarray, xi: np.ndarray, qd: np.ndarr
     _store(r, qd.copy(), achieved, xi - achieved, res.damping, _SIGMA_SLOT.__get__(res, SolveResult),
            res.method, res.velocity_policy, res.velocity_scale, res.bound, res.limits_active, res.fallback,
            res.info)
+    return r
+
+
+def direction_result(J: np.ndarray, d: np.ndarray, w: np.ndarray, *, damping: float,
+                     sigma_min: float | _LazySigma, method: str) -> SolveResult:
+    """The `SolveResult` of a direction's answer ``w`` (n,) (`Solver.solve_direction`) for
+    the twist ``d`` (m,): q̇ = a copy of w, achieved J w, task error d − J w, no velocity
+    policy, no joint at a bound, no info. The same result as the keyword constructor's,
+    without its checks of ``info`` and the fresh ``bound`` (a control cycle's jog, every
+    period)."""
+    r = _new(SolveResult)
+    achieved = J.dot(w)
+    _store(r, w.copy(), achieved, d - achieved, damping, sigma_min, method, "none", 1.0,
+           shared_zeros(w.shape[0], bool), (), False, _EMPTY)
     return r
 
 

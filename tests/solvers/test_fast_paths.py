@@ -178,3 +178,28 @@ def test_the_jacobian_kernel_gives_fk_jacobians_j_bit_for_bit(name):
     rng = np.random.default_rng(5)
     for q in rng.uniform(-3.0, 3.0, (500, arm.dof)):
         assert arm.jacobian(q).tobytes() == arm.fk_jacobian(q)[1].tobytes()
+
+
+def test_direction_result_equals_the_keyword_result():
+    """`direction_result` (a jog's result every period) is the keyword constructor's result
+    of the same answer: q̇ a read-only copy of w, J w, d − J w, no bound, no policy, no info."""
+    from ratectl.solvers.base import direction_result
+
+    rng = np.random.default_rng(3)
+    for n in (3, 6, 7):
+        J = rng.normal(size=(6, n))
+        d = rng.normal(size=6)
+        w = rng.normal(size=n)
+        r = direction_result(J, d, w, damping=0.25, sigma_min=0.5, method="qp")
+        k = SolveResult(qd=w.copy(), achieved=J @ w, task_error=d - J @ w, damping=0.25, sigma_min=0.5,
+                        method="qp")
+        for f in ("qd", "achieved", "task_error", "bound"):
+            a, b = getattr(r, f), getattr(k, f)
+            assert a.dtype == b.dtype and np.array_equal(a, b) and not a.flags.writeable
+        assert r.qd is not w and w.flags.writeable  # the caller's w is neither kept nor frozen
+        for f in ("damping", "sigma_min", "method", "velocity_policy", "velocity_scale", "limits_active",
+                  "fallback"):
+            assert getattr(r, f) == getattr(k, f)
+        assert dict(r.info) == dict(k.info) == {}
+        with pytest.raises(ValueError):
+            r.bound[0] = True
