@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from operator import mul
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -63,7 +64,7 @@ _LIMIT_MARGIN = 1e-3  # [rad or m] a jog's speed bound stops this far inside a j
 _VMAX_HEADROOM = 0.05  # the share of vmax a smoothed progress leaves to its filter
 _LOST = 0.2  # share of |J⁺d|² in the weakest direction above which a direction is being lost
 _AHEAD_STEPS = 4  # at most this many steps of the singularity look-ahead along the direction's joint path
-_FAR_ABOVE = 2.0  # σ_min/stop above which a slope check can rule the look-ahead out
+_FAR_ABOVE = 2.0  # the look-ahead runs below this many times stop_sigma
 _AHEAD_JOINT_STEP = 0.05  # [rad or m] a look-ahead step moves a joint at most this far (w at q)
 _PLANNED_BRAKE = 0.5  # the share of the acceleration bound a stop ahead is assumed to brake at
 _SIGMA_NOISE = 1e-10  # a change of σ_min over the look-ahead step below this is rounding
@@ -179,6 +180,8 @@ class ProgressLimits:
             return np.broadcast_to(a, (n,)).tolist()
 
         self._l_vcap = floats(vcap)
+        with np.errstate(divide="ignore"):
+            self._l_inv_vcap = floats(np.where(np.isfinite(vcap), 1.0 / vcap, 0.0))  # (inf for vmax 0)
         self._l_share_a = floats(share_a)
         self._l_share_j = floats(share_j)
         self._l_curv_a = floats((1.0 - self.accel_share) * self.amax)
@@ -313,15 +316,15 @@ class ProgressLimits:
             self._singularity(caps, q, w, exact, ahead)
         return caps
 
-    def _bounds_at(self, w: np.ndarray) -> tuple[float, float, float]:
-        """The bounds on ṡ (vmax, with a smoothed command's headroom), |s̈| and |s⃛| (the
-        progress's shares of amax and jmax) for motion q̇ = ṡ w."""
-        speed = accel = jerk = math.inf
-        for vc, a, j, wi in zip(self._l_vcap, self._l_share_a, self._l_share_j, w.tolist(), strict=True):
+    def _bounds_at(self, w: np.ndarray) -> tuple[float, float]:
+        """The bounds on |s̈| and |s⃛| (the progress's shares of amax and jmax) for motion
+        q̇ = ṡ w."""
+        accel = jerk = math.inf
+        for a, j, wi in zip(self._l_share_a, self._l_share_j, w.tolist(), strict=True):
             awi = wi if wi >= 0.0 else -wi
             if awi > _TINY_W:
-                speed, accel, jerk = min(speed, vc / awi), min(accel, a / awi), min(jerk, j / awi)
-        return speed, accel, jerk
+                accel, jerk = min(accel, a / awi), min(jerk, j / awi)
+        return accel, jerk
 
     def _room_ahead(self, q, w, exact, sigma: float, share: float, D: float) -> _Ahead:
         """What lies within the progress ``D`` ahead (a little more than the motion needs to
@@ -359,12 +362,14 @@ class ProgressLimits:
             s_k, h_k, w_next = exact(q_k)
             x_k = k * dx
             if w_next is not None:
-                v_k, a_k, j_k = self._bounds_at(w_next)
-                if v_k < math.inf:
+                # vmax at this step: ṡ ≤ 1/maxᵢ(|wᵢ|/vmaxᵢ)
+                per_v = max(map(mul, map(abs, w_next.tolist()), self._l_inv_vcap))
+                if per_v > 0.0:
+                    v_k = 1.0 / per_v
+                    a_k, j_k = self._bounds_at(w_next)
                     slow = (braking_speed_scalar(x_k, _PLANNED_BRAKE * a_k, j_k) if a_k < math.inf
                             else math.inf)
                     out.speed = min(out.speed, math.sqrt(v_k * v_k + slow * slow))
-                out.accel, out.jerk = a_k, j_k  # (the bounds at the block, once it is found)
             s_prev, h_prev, x_prev = ss[-1], hs[-1], xs[-1]
             if rising:
                 if s_k < s_prev:  # falls after rising: stop at the peak
@@ -379,6 +384,8 @@ class ProgressLimits:
                     out.room = min(max(top, x0), x_k)
                     return out
             elif s_k <= stop and h_k > _LOST:
+                if w_next is not None:  # the bounds at the block
+                    out.accel, out.jerk = self._bounds_at(w_next)
                 if s_prev > stop:
                     out.room = x_prev + dx * (s_prev - stop) / (s_prev - s_k)
                 else:
@@ -390,7 +397,6 @@ class ProgressLimits:
             ss.append(s_k)
             hs.append(h_k)
             w_k = w_next
-        out.accel = out.jerk = math.inf  # (no block within D)
         return out
 
     def _limit_reason(self, w: list[float], i: int, *, at: bool) -> str:
@@ -429,18 +435,15 @@ class ProgressLimits:
                 room = (sigma - self.stop_sigma) / (2.0 * slope)
         # the look-ahead reaches as far as a stop at the bounds of a block would need: |w| is
         # at most σ_min/stop times larger there (a lost direction's weakest component grows
-        # like 1/σ_min), and the bounds on s̈ and s⃛ that much smaller; well above the stop it
-        # is left out for a direction not lost here, or lost but with a slope that would not
-        # lower σ_min to the stop within four times the look-ahead
+        # like 1/σ_min), and the bounds on s̈ and s⃛ that much smaller; it runs below
+        # _FAR_ABOVE × the stop only (above, the slope at q bounds a lost direction, and a
+        # block is farther than a stop from there needs: the look-ahead sees it on the way)
         reach = max(sigma / self.stop_sigma, 1.0)
-        far_above = sigma > _FAR_ABOVE * self.stop_sigma and not (share > _LOST and slope > 0.0)
-        D = (ahead(caps.accel / reach, caps.jerk / reach)
-             if ahead is not None and room > 0.0 and not far_above else 0.0)
-        if sigma > _FAR_ABOVE * self.stop_sigma and sigma - 4.0 * max(slope, 0.0) * 1.5 * D > self.stop_sigma:
-            far_above = True
+        near = sigma <= _FAR_ABOVE * self.stop_sigma
+        D = ahead(caps.accel / reach, caps.jerk / reach) if ahead is not None and room > 0.0 and near else 0.0
         peak = False
         block_bounds = None
-        if D > ds and not far_above:
+        if D > ds:
             found = self._room_ahead(q, w, exact, sigma, share, 1.5 * D)
             if found.speed < caps.speed:  # vmax on the way
                 caps.speed = found.speed
