@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from operator import mul
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -180,8 +179,6 @@ class ProgressLimits:
             return np.broadcast_to(a, (n,)).tolist()
 
         self._l_vcap = floats(vcap)
-        with np.errstate(divide="ignore"):
-            self._l_inv_vcap = floats(np.where(np.isfinite(vcap), 1.0 / vcap, 0.0))  # (inf for vmax 0)
         self._l_share_a = floats(share_a)
         self._l_share_j = floats(share_j)
         self._l_curv_a = floats((1.0 - self.accel_share) * self.amax)
@@ -316,15 +313,24 @@ class ProgressLimits:
             self._singularity(caps, q, w, exact, ahead)
         return caps
 
-    def _bounds_at(self, w: np.ndarray) -> tuple[float, float]:
-        """The bounds on |s̈| and |s⃛| (the progress's shares of amax and jmax) for motion
-        q̇ = ṡ w."""
-        accel = jerk = math.inf
-        for a, j, wi in zip(self._l_share_a, self._l_share_j, w.tolist(), strict=True):
+    def _bounds_at(self, w: np.ndarray) -> tuple[float, float, float]:
+        """The bounds on ṡ (vmax, with a smoothed command's headroom), |s̈| and |s⃛| (the
+        progress's shares of amax and jmax) for motion q̇ = ṡ w, in one pass over the joints."""
+        speed = accel = jerk = math.inf
+        for v, a, j, wi in zip(self._l_vcap, self._l_share_a, self._l_share_j, w.tolist(), strict=True):
             awi = wi if wi >= 0.0 else -wi
             if awi > _TINY_W:
-                accel, jerk = min(accel, a / awi), min(jerk, j / awi)
-        return accel, jerk
+                inv = 1.0 / awi
+                x = v * inv
+                if x < speed:
+                    speed = x
+                x = a * inv
+                if x < accel:
+                    accel = x
+                x = j * inv
+                if x < jerk:
+                    jerk = x
+        return speed, accel, jerk
 
     def _room_ahead(self, q, w, exact, sigma: float, share: float, D: float) -> _Ahead:
         """What lies within the progress ``D`` ahead (a little more than the motion needs to
@@ -361,12 +367,10 @@ class ProgressLimits:
             q_k = q_k + w_k * dx
             s_k, h_k, w_next = exact(q_k)
             x_k = k * dx
+            a_k = j_k = math.inf  # the bounds at this step (those at the block, if it is here)
             if w_next is not None:
-                # vmax at this step: ṡ ≤ 1/maxᵢ(|wᵢ|/vmaxᵢ)
-                per_v = max(map(mul, map(abs, w_next.tolist()), self._l_inv_vcap))
-                if per_v > 0.0:
-                    v_k = 1.0 / per_v
-                    a_k, j_k = self._bounds_at(w_next)
+                v_k, a_k, j_k = self._bounds_at(w_next)
+                if v_k < math.inf:  # vmax at this step
                     slow = (braking_speed_scalar(x_k, _PLANNED_BRAKE * a_k, j_k) if a_k < math.inf
                             else math.inf)
                     out.speed = min(out.speed, math.sqrt(v_k * v_k + slow * slow))
@@ -384,8 +388,7 @@ class ProgressLimits:
                     out.room = min(max(top, x0), x_k)
                     return out
             elif s_k <= stop and h_k > _LOST:
-                if w_next is not None:  # the bounds at the block
-                    out.accel, out.jerk = self._bounds_at(w_next)
+                out.accel, out.jerk = a_k, j_k
                 if s_prev > stop:
                     out.room = x_prev + dx * (s_prev - stop) / (s_prev - s_k)
                 else:
@@ -426,13 +429,11 @@ class ProgressLimits:
             return
         ds = 1e-4 / norm  # a 1e-4 rad (or m) joint step along w
         room = math.inf
-        slope = math.nan
         if share > _LOST:  # being lost here: the slope of σ_min at q
             sigma_ahead = exact(q + w * ds, share=False)[0]
             drop = sigma - sigma_ahead
-            slope = drop / ds
             if drop > _SIGMA_NOISE * (1.0 + sigma):  # (else moving away from it, or along it)
-                room = (sigma - self.stop_sigma) / (2.0 * slope)
+                room = (sigma - self.stop_sigma) / (2.0 * drop / ds)
         # the look-ahead reaches as far as a stop at the bounds of a block would need: |w| is
         # at most σ_min/stop times larger there (a lost direction's weakest component grows
         # like 1/σ_min), and the bounds on s̈ and s⃛ that much smaller; it runs below
