@@ -61,17 +61,15 @@ def test_unreachable_target_with_smoothing_error_never_grows_and_the_arm_stops(n
     chain = factory()
     T = chain.fk(np.array(q0))
     T[:3, 3] += shift
-    cmds, q = _run(chain, q0, T, smoothing=True, dt=2e-3, steps=2000)
+    cmds, q = _run(chain, q0, T, smoothing=True, dt=2e-3, steps=1500)
     ep = np.array([c.position_error for c in cmds])
     rise = float(np.max(ep - np.minimum.accumulate(ep)))
     assert rise <= 1e-6, f"{name}: the position error grew by {rise * 1e3:.3f} mm on the way"
-    # the stop is reported within 3 s; the arm then settles onto it (the feedback in the
-    # weakest direction, damped there) and is at rest within 4 s
-    assert cmds[1499].status in ("target-unreachable", "target-reached"), f"{name}: {cmds[1499]}"
-    assert np.abs(cmds[-1].qd).max() < 1e-6, f"{name}: still moving after 4 s: {cmds[-1]}"
+    assert cmds[-1].status in ("target-unreachable", "target-reached"), f"{name}: {cmds[-1]}"
+    assert np.abs(cmds[-1].qd).max() < 1e-6, f"{name}: still moving after 3 s: {cmds[-1]}"
     assert not any("slowed to -" in c.reason for c in cmds)
     # it stops where the unsmoothed law stops (a best effort), not farther away
-    plain, _ = _run(chain, q0, T, smoothing=False, dt=2e-3, steps=2000)
+    plain, _ = _run(chain, q0, T, smoothing=False, dt=2e-3, steps=1500)
     assert ep[-1] <= plain[-1].position_error + 2e-3
 
 
