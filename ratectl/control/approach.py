@@ -162,6 +162,9 @@ class Progress:
             if stopper is None:
                 stopper = self._stopper = SpeedProfile(dt)
             brake = max(brake, abs(self.sdd))
+            # the stop comes too late for the block's bounds: it brakes within the bounds
+            # that hold where the arm is (the joints' jerk now, not the smaller one at the block)
+            jmax = max(caps.jerk, jmax)
             # braking harder than the jerk bound lets the speed end at rest (a stop from
             # speed v at deceleration a needs the jerk a²/2v at least, or the speed would dip
             # below rest: back along the direction, by a²/2j, which a small jerk bound near a

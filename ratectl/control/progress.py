@@ -67,6 +67,7 @@ _FAR_ABOVE = 2.0  # the look-ahead runs below this many times stop_sigma
 _AHEAD_JOINT_STEP = 0.05  # [rad or m] a look-ahead step moves a joint at most this far (w at q)
 _PLANNED_BRAKE = 0.5  # the share of the acceleration bound a stop ahead is assumed to brake at
 _SIGMA_NOISE = 1e-10  # a change of σ_min over the look-ahead step below this is rounding
+_BEND_STEP = 0.02  # [rad or m] the joint step (w at q) over which the bend of σ_min ahead is measured
 _UNBOUNDED = 1e9  # an absent bound on the progress (Ruckig needs finite limits)
 _JERK_BIG = 1e12  # an unbounded progress jerk in the jerk-limited braking formula
 
@@ -414,6 +415,21 @@ class ProgressLimits:
                                          else f"joint {self.name(i)} braking toward its {side} limit")
         return text
 
+    def _bend_room(self, q, w, exact, sigma: float, slope: float) -> float:
+        """The progress before σ_min falls to ``stop_sigma`` on the parabola through σ_min at
+        q with its slope there (``slope`` = dσ_min/ds) and σ_min one joint step `_BEND_STEP`
+        ahead along w, when that parabola bends down: σ(x) = σ + m·x + ½c·x², c < 0, reaches
+        the stop at x = (m + √(m² − 2c(σ − stop)))/(−c). A line that grazes a singularity
+        (σ_min rises, turns over and falls) is slowed while σ_min still rises, where the
+        slope alone sees no block; inf where σ_min does not bend down."""
+        w_inf = max(abs(x) for x in w.tolist())
+        h = _BEND_STEP / w_inf
+        sigma_h = exact(q + w * h, share=False)[0]
+        c = 2.0 * (sigma_h - sigma - slope * h) / (h * h)
+        if not c < -_SIGMA_NOISE * (1.0 + sigma) / (h * h):
+            return math.inf
+        return (slope + math.sqrt(slope * slope - 2.0 * c * (sigma - self.stop_sigma))) / -c
+
     def _singularity(self, caps: ProgressCaps, q, w, exact, ahead=None) -> None:
         """The singularity bound (see the module docstring) applied to ``caps``: only for a
         direction that is being lost, here or within the look-ahead, most of whose exact
@@ -429,11 +445,13 @@ class ProgressLimits:
             return
         ds = 1e-4 / norm  # a 1e-4 rad (or m) joint step along w
         room = math.inf
-        if share > _LOST:  # being lost here: the slope of σ_min at q
+        if share > _LOST:  # being lost here: the slope of σ_min at q, and its bend
             sigma_ahead = exact(q + w * ds, share=False)[0]
             drop = sigma - sigma_ahead
             if drop > _SIGMA_NOISE * (1.0 + sigma):  # (else moving away from it, or along it)
                 room = (sigma - self.stop_sigma) / (2.0 * drop / ds)
+            if sigma > self.stop_sigma:
+                room = min(room, self._bend_room(q, w, exact, sigma, -drop / ds))
         # the look-ahead reaches as far as a stop at the bounds of a block would need: |w| is
         # at most σ_min/stop times larger there (a lost direction's weakest component grows
         # like 1/σ_min), and the bounds on s̈ and s⃛ that much smaller; it runs below

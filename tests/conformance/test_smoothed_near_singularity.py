@@ -105,3 +105,36 @@ def test_a_smoothed_jog_into_a_ur5e_wrist_singularity_from_inside_stop_sigma_nev
         across += float(np.linalg.norm(dp - (dp @ u) * u))
         p = p_next
     assert across <= 2e-3, f"{across * 1e3:.1f} mm across the twist"
+
+
+def test_a_smoothed_servo_on_a_line_that_grazes_a_singularity_stops_on_it():
+    """iiwa7 from σ_min 9e-4, a 230 mm step with a 41° turn, smoothed, dt 4 ms: σ_min rises
+    along the line to 0.127, turns over and falls to a singularity 135 mm along. The arm
+    must slow while σ_min still rises (the slope alone sees no block before the turn), stop
+    on its line before σ_min reaches ``stop_sigma`` and say that the line is blocked; a stop
+    planned too late once crossed the singularity and left the line by 61 mm."""
+    arm = rc.robots.iiwa7()
+    q = np.array([-1.7692191774758934, 0.0041327156361188715, -0.5408968199847376, -1.351217285441479,
+                  -2.4551658462721466, -0.0006766631815765057, 0.4581459506194898])
+    target = np.array([[-0.9401452981373222, -0.21909785814114568, -0.2610037297592662, -0.4685231782079791],
+                       [0.1616917974157037, 0.38740101163396357, -0.9076211868579647, -0.4634745120181296],
+                       [0.299970966993082, -0.8954979535113095, -0.32878691308854036, 1.029424776029509],
+                       [0.0, 0.0, 0.0, 1.0]])
+    p0, p1 = arm.fk(q)[:3, 3], target[:3, 3]
+    L = float(np.linalg.norm(p1 - p0))
+    u = (p1 - p0) / L
+    ctrl = rc.ResolvedRateController(arm, smoothing=True)
+    off = 0.0
+    sigma_low = np.inf
+    moved = False
+    for _ in range(750):
+        cmd = ctrl.step(q, target=target, dt=4e-3)
+        q = cmd.q_next
+        D = arm.fk(q)[:3, 3] - p0
+        off = max(off, float(np.linalg.norm(D - np.clip(D @ u, 0.0, L) * u)))
+        moved = moved or D @ u > 0.05
+        if moved:  # (past where it starts, at σ_min 9e-4)
+            sigma_low = min(sigma_low, float(np.linalg.svd(arm.jacobian(q), compute_uv=False)[-1]))
+    assert off <= 1e-3 + 0.005 * L, f"{off * 1e3:.1f} mm off the line ({cmd.status})"
+    assert sigma_low >= 0.95 * ctrl.stop_sigma, (sigma_low, ctrl.stop_sigma)
+    assert cmd.status == "target-unreachable" and "singularity" in cmd.reason, (cmd.status, cmd.reason)
