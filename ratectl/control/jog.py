@@ -8,7 +8,8 @@ velocity is always a multiple of the command: near a singularity or a joint limi
 slows down and stops along ξ, never sideways, and a command that leads away moves at once.
 With smoothing, a stop before a singularity is planned as the approach plans its own
 (`Progress`); one planned too late brakes harder than its jerk share to end at rest, never
-with a jump the filter could not follow.
+with a jump the filter could not follow. A smoothed twist that turns back against the motion
+starts at c < 0 (down to −1) and c rises through rest: the tool decelerates on its line.
 
 `JogStage` is the controller's jog stage: it owns the `Jog`, solves the direction
 (`ProgressStage`) and reports the bound that holds the progress.
@@ -57,18 +58,24 @@ class Jog:
         self._plan.L = math.inf
         self._block: float | None = None  # where the planned stop ends, in the plan's progress
 
-    def start(self, twist: np.ndarray) -> None:
-        """A new commanded twist: c continues from the previous motion projected on it."""
+    def start(self, twist: np.ndarray, *, signed: bool = False) -> None:
+        """A new commanded twist: c continues from the previous motion projected on it.
+        ``signed`` (a smoothed jog): a twist that turns back against the motion (c < 0 on
+        it) keeps c negative, down to −1, and c then rises through rest on its jerk-limited
+        profile: the tool decelerates along the line it moved on, and the filter meets a
+        reference that never jumps (cut to rest, its joints would brake each on its own and
+        carry the tool sideways). Otherwise c is clipped to [0, 1] (the limiter scales the
+        jump of q̇ into amax·dt along the previous motion)."""
         prev = self.twist
-        if prev is not None and self.c > 0.0 and not _same(prev, twist):
+        if prev is not None and self.c != 0.0 and not _same(prev, twist):
             self._block = None  # (a stop planned along the previous twist)
             nn = float(twist.dot(twist))  # (ndarray.dot: the same product as @, cheaper)
             ratio = float(prev.dot(twist)) / nn if nn > 0.0 else 0.0
             c = self.c * ratio
-            self.c = min(max(c, 0.0), 1.0)
+            self.c = min(max(c, -1.0 if signed else 0.0), 1.0)
             # (smoothed) ċ likewise, where c is not clipped: a twist that turns a little every
             # period keeps its jerk-limited progress going
-            self.cd = self.cd * ratio if 0.0 < c < 1.0 else 0.0
+            self.cd = self.cd * ratio if (-1.0 if signed else 0.0) < c < 1.0 else 0.0
             self.w_prev = None
         self.twist = twist.copy()
 
@@ -137,7 +144,7 @@ class Jog:
             self.cd = 0.0
             return self.advance(caps, dt)
         c, cd = nxt
-        if c <= 0.0:
+        if c <= 0.0 and self.c >= 0.0:  # (a stop ends at rest; a motion back, c < 0, rises through it)
             c, cd = 0.0, 0.0
         self.c, self.cd = c, cd
         return c
@@ -191,7 +198,7 @@ class JogStage:
         if jog.twist is None and nonzero:  # a first twist: c from the arm's present motion
             moving = J.dot(self._m.qd)
             jog.c = min(max(float(moving.dot(twist)) / float(twist.dot(twist)), 0.0), 1.0)
-        jog.start(twist)
+        jog.start(twist, signed=self._smoothed)
         if not nonzero:
             jog.c = 0.0
             cyc.xi = twist.copy()
@@ -237,7 +244,7 @@ class JogStage:
                 caps.reason = ("stopping before a singularity: the commanded direction lowers σ_min "
                                f"(σ_min = {caps.sigma:.3g}) on its way")
             at_bound = True
-        self._progress.flags(cyc, q, caps, c > 0.0, at_bound)
+        self._progress.flags(cyc, q, caps, c != 0.0, at_bound)
         if c_prev < c < min(1.0, caps.speed) * (1.0 - 1e-12):
             cyc.flags.append("acceleration-limited")
             cyc.reasons.append(f"accelerating along the commanded twist within amax ({c:.3g}× the twist)")
