@@ -23,7 +23,10 @@ measured q, for the coming period:
   motion lowers it. Its rate along the direction, σ′ = dσ_min/ds, comes from a finite
   difference of σ_min one small step ahead along w; the remaining progress before σ_min
   reaches ``stop_sigma`` is estimated as Δs = (σ_min − stop)/(2|σ′|) (half the first-order
-  estimate: σ_min falls like √(distance) at a boundary singularity). Near a singularity
+  estimate: σ_min falls like √(distance) at a boundary singularity); σ_min one joint step
+  further ahead gives its bend, and where the parabola through the three bends down, its
+  crossing of ``stop_sigma`` (or, below the stop, the peak of a rise) bounds the room too
+  (`_bend_room`: a line that grazes a singularity). Near a singularity
   the direction's joint path is also followed ahead along the exact w = J⁺d, over 1.5×
   the distance a stop at the bounds of a block needs (`caps`'s ``ahead``): the block is
   the first point where σ_min is at most ``stop_sigma`` with the direction lost there, or,
@@ -416,19 +419,27 @@ class ProgressLimits:
         return text
 
     def _bend_room(self, q, w, exact, sigma: float, slope: float) -> float:
-        """The progress before σ_min falls to ``stop_sigma`` on the parabola through σ_min at
-        q with its slope there (``slope`` = dσ_min/ds) and σ_min one joint step `_BEND_STEP`
-        ahead along w, when that parabola bends down: σ(x) = σ + m·x + ½c·x², c < 0, reaches
-        the stop at x = (m + √(m² − 2c(σ − stop)))/(−c). A line that grazes a singularity
-        (σ_min rises, turns over and falls) is slowed while σ_min still rises, where the
-        slope alone sees no block; inf where σ_min does not bend down."""
+        """Where σ_min, bending down ahead, holds the motion: on the parabola through σ_min
+        at q with its slope there (``slope`` = dσ_min/ds) and σ_min one joint step
+        `_BEND_STEP` ahead along w, σ(x) = σ + m·x + ½c·x² with c < 0:
+
+        * above ``stop_sigma``, the progress before it falls to the stop,
+          x = (m + √(m² − 2c(σ − stop)))/(−c);
+        * at or below the stop while it rises (m > 0), its peak x = m/(−c), where a motion
+          rising away from the singularity stops (it may not end lower than it is).
+
+        A direction that grazes a singularity (σ_min rises, turns over and falls) is slowed
+        while σ_min still rises, where the slope alone sees no block; inf where σ_min does
+        not bend down."""
         w_inf = max(abs(x) for x in w.tolist())
         h = _BEND_STEP / w_inf
         sigma_h = exact(q + w * h, share=False)[0]
         c = 2.0 * (sigma_h - sigma - slope * h) / (h * h)
         if not c < -_SIGMA_NOISE * (1.0 + sigma) / (h * h):
             return math.inf
-        return (slope + math.sqrt(slope * slope - 2.0 * c * (sigma - self.stop_sigma))) / -c
+        if sigma > self.stop_sigma:
+            return (slope + math.sqrt(slope * slope - 2.0 * c * (sigma - self.stop_sigma))) / -c
+        return slope / -c if slope > 0.0 else math.inf
 
     def _singularity(self, caps: ProgressCaps, q, w, exact, ahead=None) -> None:
         """The singularity bound (see the module docstring) applied to ``caps``: only for a
@@ -445,13 +456,16 @@ class ProgressLimits:
             return
         ds = 1e-4 / norm  # a 1e-4 rad (or m) joint step along w
         room = math.inf
+        bend_peak = False
         if share > _LOST:  # being lost here: the slope of σ_min at q, and its bend
             sigma_ahead = exact(q + w * ds, share=False)[0]
             drop = sigma - sigma_ahead
             if drop > _SIGMA_NOISE * (1.0 + sigma):  # (else moving away from it, or along it)
                 room = (sigma - self.stop_sigma) / (2.0 * drop / ds)
-            if sigma > self.stop_sigma:
-                room = min(room, self._bend_room(q, w, exact, sigma, -drop / ds))
+            if sigma > self.stop_sigma or drop < 0.0:
+                bend = self._bend_room(q, w, exact, sigma, -drop / ds)
+                if bend < room:  # (below the stop: the peak of a rise)
+                    room, bend_peak = bend, sigma <= self.stop_sigma
         # the look-ahead reaches as far as a stop at the bounds of a block would need: |w| is
         # at most σ_min/stop times larger there (a lost direction's weakest component grows
         # like 1/σ_min), and the bounds on s̈ and s⃛ that much smaller; it runs below
@@ -460,7 +474,7 @@ class ProgressLimits:
         reach = max(sigma / self.stop_sigma, 1.0)
         near = sigma <= _FAR_ABOVE * self.stop_sigma
         D = ahead(caps.accel / reach, caps.jerk / reach) if ahead is not None and room > 0.0 and near else 0.0
-        peak = False
+        peak = bend_peak
         block_bounds = None
         if D > ds:
             found = self._room_ahead(q, w, exact, sigma, share, 1.5 * D)

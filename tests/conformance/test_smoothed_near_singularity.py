@@ -138,3 +138,38 @@ def test_a_smoothed_servo_on_a_line_that_grazes_a_singularity_stops_on_it():
     assert off <= 1e-3 + 0.005 * L, f"{off * 1e3:.1f} mm off the line ({cmd.status})"
     assert sigma_low >= 0.95 * ctrl.stop_sigma, (sigma_low, ctrl.stop_sigma)
     assert cmd.status == "target-unreachable" and "singularity" in cmd.reason, (cmd.status, cmd.reason)
+
+
+def test_a_smoothed_jog_reversed_at_a_singularity_stops_at_the_peak_of_sigma_min():
+    """example-robot-data's Panda at σ_min 1.8e-4 (a boundary singularity), a twist held
+    2.03 s (halted: it lowers σ_min), then reversed for 2 s, smoothed, QP, dt 1 ms. The
+    reversed twist raises σ_min to a peak of 1.1e-3 (far below ``stop_sigma``) and then
+    lowers it again: the jog must stop at the peak. Seen too late, it ran through the
+    singularity and the tool slid 19.7 mm across the twist; the tool's motion across the
+    twist stays within 2 mm and 0.5° in total."""
+    if servo_arms.robots_dir() is None:
+        pytest.skip("example-robot-data is not installed")
+    arm = servo_arms.urdf_arm("panda")
+    q = np.array([1.8958591918582033, 1.140568543885802, 1.0002603306790936, -0.42806905707819004,
+                  1.4784410893681725, 1.7477376151240964, 0.1796755100452616])
+    xi = np.array([-0.060968935693706844, 0.004305794870498736, -0.07914700885636694,
+                   -0.02732929390098205, -0.1259038335594621, -0.06001852587579653])
+    dt = 1e-3
+    ctrl = rc.ResolvedRateController(arm, smoothing=True, solver=rc.solvers.QP())
+    hold = int(round(2.0300322063228347 / dt))
+    T = arm.fk(q)
+    across = turn = 0.0
+    for k in range(hold + 2000):
+        x = xi if k < hold else -xi
+        cmd = ctrl.step(q, twist=x, dt=dt)
+        q = cmd.q_next
+        T_next = arm.fk(q)
+        dp = T_next[:3, 3] - T[:3, 3]
+        dphi = rc.spatial.so3_log(T_next[:3, :3] @ T[:3, :3].T)
+        along = float(dp @ x[:3]) / float(x[:3] @ x[:3])
+        across += float(np.linalg.norm(dp - along * x[:3]))
+        turn += float(np.linalg.norm(dphi - along * x[3:]))
+        T = T_next
+    assert across <= 2e-3, f"{across * 1e3:.2f} mm across the twist"
+    assert turn <= np.radians(0.5), f"{np.degrees(turn):.2f}° across the twist"
+    assert cmd.status == "halted-singularity", (cmd.status, cmd.reason)
