@@ -425,8 +425,9 @@ class ProgressLimits:
 
         * above ``stop_sigma``, the progress before it falls to the stop,
           x = (m + √(m² − 2c(σ − stop)))/(−c);
-        * at or below the stop while it rises (m > 0), its peak x = m/(−c), where a motion
-          rising away from the singularity stops (it may not end lower than it is).
+        * at or below the stop, while it rises or stands flat (m ≥ 0 to rounding), its peak
+          x = max(m, 0)/(−c), where a motion rising away from the singularity stops (it may
+          not end lower than it is): 0 for an arm at rest at that peak.
 
         A direction that grazes a singularity (σ_min rises, turns over and falls) is slowed
         while σ_min still rises, where the slope alone sees no block; inf where σ_min does
@@ -439,7 +440,7 @@ class ProgressLimits:
             return math.inf
         if sigma > self.stop_sigma:
             return (slope + math.sqrt(slope * slope - 2.0 * c * (sigma - self.stop_sigma))) / -c
-        return slope / -c if slope > 0.0 else math.inf
+        return max(slope, 0.0) / -c  # (0 at the peak: flat to rounding, and bending down)
 
     def _singularity(self, caps: ProgressCaps, q, w, exact, ahead=None) -> None:
         """The singularity bound (see the module docstring) applied to ``caps``: only for a
@@ -462,7 +463,8 @@ class ProgressLimits:
             drop = sigma - sigma_ahead
             if drop > _SIGMA_NOISE * (1.0 + sigma):  # (else moving away from it, or along it)
                 room = (sigma - self.stop_sigma) / (2.0 * drop / ds)
-            if sigma > self.stop_sigma or drop < 0.0:
+            # (below the stop, unless it falls here: the slope already stops it)
+            if sigma > self.stop_sigma or drop <= _SIGMA_NOISE * (1.0 + sigma):
                 bend = self._bend_room(q, w, exact, sigma, -drop / ds)
                 if bend < room:  # (below the stop: the peak of a rise)
                     room, bend_peak = bend, sigma <= self.stop_sigma

@@ -482,3 +482,34 @@ def test_a_halt_status_means_the_arm_stays_at_rest(smoothing):
             break
     assert cmd.status == "target-reached", (cmd.status, cmd.reason)
     assert halted_at is None, statuses[halted_at]
+
+
+def test_a_line_blocked_at_a_peak_of_sigma_min_says_so_once_and_keeps_it():
+    """example-robot-data's UR10, a 224 mm step whose line heads into a shoulder
+    singularity, default solver, dt 1 ms: the arm stops below ``stop_sigma`` at the peak of
+    σ_min along the line. There the slope of σ_min is zero to within 1e-10 per 1e-4 rad,
+    and the status used to flicker between ``target-unreachable`` and ``joint-limit`` for
+    0.3 s while the arm crept on by rounding. Once the blocked line is reported, the
+    status stays."""
+    from . import servo_arms
+
+    if servo_arms.robots_dir() is None:
+        pytest.skip("example-robot-data is not installed")
+    arm = servo_arms.urdf_arm("ur10")
+    q = np.array([-3.791712326912164, -2.26456633918401, 1.3920591450241622, -2.0672434018337116,
+                  2.2922815701123525, 0.025837897031637524])
+    target = np.array([[0.06473392045384942, 0.15796016879053754, 0.9853213204931373, -0.15560960743212643],
+                       [-0.9921431153711137, -0.09574335636885212, 0.08053103956194876, -0.31705675976564607],
+                       [0.10705866692788535, -0.9827928544647097, 0.15052125115322507, 1.163417058316469],
+                       [0.0, 0.0, 0.0, 1.0]])
+    ctrl = rc.ResolvedRateController(arm)
+    statuses = []
+    for _ in range(2500):
+        cmd = ctrl.step(q, target=target, dt=1e-3)
+        q = cmd.q_next
+        statuses.append(cmd.status)
+    assert "target-unreachable" in statuses, set(statuses)
+    first = statuses.index("target-unreachable")
+    after = set(statuses[first:])
+    assert after == {"target-unreachable"}, (first, after)
+    assert "singularity" in cmd.reason, cmd.reason
