@@ -10,6 +10,29 @@ import ratectl as rc
 from . import servo_arms
 
 
+def _smoothed_servo_on_its_line(ctrl, q, target, *, steps, dt=4e-3, watch_after=0.0):
+    """``steps`` cycles of ``ctrl.step(q, target=target, dt=dt)``: (the last command, the
+    step's length L [m], the largest distance of the tool point from the straight segment
+    [m], the smallest σ_min(J) once the tool has moved ``watch_after`` [m] along it (at the
+    end when 0))."""
+    arm = ctrl.chain
+    p0, p1 = arm.fk(q)[:3, 3], target[:3, 3]
+    L = float(np.linalg.norm(p1 - p0))
+    u = (p1 - p0) / L
+    off = 0.0
+    sigma_low = np.inf
+    for _ in range(steps):
+        cmd = ctrl.step(q, target=target, dt=dt)
+        q = cmd.q_next
+        D = arm.fk(q)[:3, 3] - p0
+        off = max(off, float(np.linalg.norm(D - np.clip(D @ u, 0.0, L) * u)))
+        if watch_after > 0.0 and D @ u > watch_after:
+            sigma_low = min(sigma_low, float(np.linalg.svd(arm.jacobian(q), compute_uv=False)[-1]))
+    if watch_after == 0.0:
+        sigma_low = float(np.linalg.svd(arm.jacobian(q), compute_uv=False)[-1])
+    return cmd, L, off, sigma_low
+
+
 def test_a_smoothed_servo_stops_on_its_line_before_a_boundary_singularity():
     """PUMA 560, σ_min 0.052, a 235 mm step whose line heads into the boundary singularity,
     smoothed, dt 4 ms: the line is blocked and the arm must stop on it (1 mm + 0.5 %)."""
@@ -20,19 +43,10 @@ def test_a_smoothed_servo_stops_on_its_line_before_a_boundary_singularity():
                        [-0.3875340082755003, -0.7464207217709845, 0.5409930669988361, 0.8644675456093582],
                        [-0.4848611860928277, -0.33408408509153964, -0.8082681821705003, -0.17726009457419173],
                        [0.0, 0.0, 0.0, 1.0]])
-    p0, p1 = arm.fk(q)[:3, 3], target[:3, 3]
-    L = float(np.linalg.norm(p1 - p0))
-    u = (p1 - p0) / L
     ctrl = rc.ResolvedRateController(arm, smoothing=True)
-    off = 0.0
-    for _ in range(1000):
-        cmd = ctrl.step(q, target=target, dt=4e-3)
-        q = cmd.q_next
-        D = arm.fk(q)[:3, 3] - p0
-        off = max(off, float(np.linalg.norm(D - np.clip(D @ u, 0.0, L) * u)))
+    cmd, L, off, sigma = _smoothed_servo_on_its_line(ctrl, q, target, steps=1000)
     assert off <= 1e-3 + 0.005 * L, f"{off * 1e3:.1f} mm off the line ({cmd.status})"
     # stopped before the singularity, where σ_min reaches stop_sigma, and said so
-    sigma = float(np.linalg.svd(arm.jacobian(q), compute_uv=False)[-1])
     assert sigma >= 0.95 * ctrl.stop_sigma, (sigma, ctrl.stop_sigma)
     assert cmd.status == "target-unreachable" and "singularity" in cmd.reason, (cmd.status, cmd.reason)
 
@@ -120,21 +134,9 @@ def test_a_smoothed_servo_on_a_line_that_grazes_a_singularity_stops_on_it():
                        [0.1616917974157037, 0.38740101163396357, -0.9076211868579647, -0.4634745120181296],
                        [0.299970966993082, -0.8954979535113095, -0.32878691308854036, 1.029424776029509],
                        [0.0, 0.0, 0.0, 1.0]])
-    p0, p1 = arm.fk(q)[:3, 3], target[:3, 3]
-    L = float(np.linalg.norm(p1 - p0))
-    u = (p1 - p0) / L
     ctrl = rc.ResolvedRateController(arm, smoothing=True)
-    off = 0.0
-    sigma_low = np.inf
-    moved = False
-    for _ in range(750):
-        cmd = ctrl.step(q, target=target, dt=4e-3)
-        q = cmd.q_next
-        D = arm.fk(q)[:3, 3] - p0
-        off = max(off, float(np.linalg.norm(D - np.clip(D @ u, 0.0, L) * u)))
-        moved = moved or D @ u > 0.05
-        if moved:  # (past where it starts, at σ_min 9e-4)
-            sigma_low = min(sigma_low, float(np.linalg.svd(arm.jacobian(q), compute_uv=False)[-1]))
+    # (σ_min watched past where the arm starts, at σ_min 9e-4)
+    cmd, L, off, sigma_low = _smoothed_servo_on_its_line(ctrl, q, target, steps=750, watch_after=0.05)
     assert off <= 1e-3 + 0.005 * L, f"{off * 1e3:.1f} mm off the line ({cmd.status})"
     assert sigma_low >= 0.95 * ctrl.stop_sigma, (sigma_low, ctrl.stop_sigma)
     assert cmd.status == "target-unreachable" and "singularity" in cmd.reason, (cmd.status, cmd.reason)
