@@ -253,10 +253,16 @@ class QP(Solver):
         weights, an objective, no shortcut, J near a singularity or out of range, a factor
         that fails) takes the two entries in turn (the default): the same answers."""
         m, n = J.shape
-        entries = _checked_entries(J, d)
         reg = self._reg.get(n)
-        if (self._rows is not None or self.objective is not None or not (self.shortcut and self._pd)
-                or reg is None or not self._reg_small[n] or not _hypot(*entries, *xi.tolist()) < _MAX_ENTRY):
+        if self._rows is not None or self.objective is not None or not (self.shortcut and self._pd) \
+                or reg is None or not self._reg_small[n]:
+            return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+        # the input checks of both entries (`_checked_entries`: √(‖J‖²_F + ‖d‖²) and
+        # √(‖J‖²_F + ‖ξ‖²) below 1e145), from ‖J‖_F once, with a margin for its rounding
+        # (anything closer takes the entries themselves, which check exactly)
+        entries = J.ravel().tolist()
+        norm = _hypot(*entries)
+        if not max(_hypot(norm, *d.tolist()), _hypot(norm, *xi.tolist())) < _MAX_ENTRY * (1.0 - 1e-12):
             return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
         terms = self._terms
         if terms is not None and terms[1] == J.shape and terms[0] == entries:  # the last solve's J
@@ -268,7 +274,6 @@ class QP(Solver):
                      else _LazySigma(None, J.copy(), self._sigma_ref, shape=J.shape, entries=entries))
             factor = None
         self._terms = (entries, J.shape, P, sigma, factor)
-        norm = _hypot(*entries)
         w = None
         if sigma_at_least(sigma, EXACT_DIRECTION_FLOOR * norm)[0]:  # (`exact_direction_floor`)
             w = min_norm_direction(J, d, self._isw)
