@@ -2,6 +2,8 @@
 same J: the answers of ``solve_direction`` then ``solve_validated(limits=None)``, bit for bit,
 whichever solver answers (its own shared work on J or the generic default)."""
 
+import pickle
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -87,6 +89,10 @@ def test_the_joint_entry_answers_as_the_two_entries(seed, name, robot, twice):
     _same_result(ans.result(xi2, qd2), want2)
     assert qd2.flags.writeable  # (the command is copied into its result, not frozen)
     _same_result(ans.result(xi, ans.qd), res)
+    # the solver and the results still pickle (nothing unpicklable kept for the shared work)
+    _same_result(pickle.loads(pickle.dumps(ans.result(xi2, qd2))), want2)
+    if name in ("qp", "adaptive"):  # (a QP that called its OSQP backend keeps it: not picklable)
+        pickle.loads(pickle.dumps(b)).solve_direction_twist(J, d, xi, **kw)
 
 
 def test_a_subclass_that_changes_an_entry_gets_the_generic_joint_entry():

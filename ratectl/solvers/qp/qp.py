@@ -139,6 +139,8 @@ class QP(Solver):
         self._reg: dict[int, np.ndarray] = {}
         self._reg_small: dict[int, bool] = {}  # the regulariser's entries are below 1e300
         self._sigma_ref = _SigmaReference()  # the last exact σ_min, for sigma_min_at_least
+        # the info of an unconstrained answer without limits (`solve_direction_twist`'s feedback)
+        self._info_unconstrained: dict[str, Any] | None = None
         # the last J's objective terms and P's Cholesky factor: a control cycle solves twice
         # with the same J (the direction of a progress, then the command), and the second
         # solve only needs b = Jᵀξ and two triangular solves ((entries, shape, P, σ, factor))
@@ -290,14 +292,18 @@ class QP(Solver):
         if info != 0 or not _hypot(*c.tolist()) * norm < 1e300:
             return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
 
+        info = self._info_unconstrained
+        if info is None or info["backend"] != self.backend:  # (one dict, only ever shown read-only)
+            info = self._info_unconstrained = {"status": "unconstrained", "iterations": 0,
+                                               "backend": self.backend, "lower": None, "upper": None,
+                                               "certified": "unconstrained"}
+
         def make(xi_c: np.ndarray, qd: np.ndarray) -> SolveResult:
             """The feedback's result (as `solve_validated`'s) for the command ``qd``."""
             achieved = J.dot(qd)
             r = _new(SolveResult)
             _store(r, qd if qd is c else qd.copy(), achieved, xi_c - achieved, self.damping, sigma,
-                   self.method, "none", 1.0, shared_zeros(n, bool), (), False,
-                   MappingProxyType({"status": "unconstrained", "iterations": 0, "backend": self.backend,
-                                     "lower": None, "upper": None, "certified": "unconstrained"}))
+                   self.method, "none", 1.0, shared_zeros(n, bool), (), False, MappingProxyType(info))
             return r
 
         return DirectionTwist(w, sigma, 0.0, c, J=J, make=make)
