@@ -54,6 +54,9 @@ _dposv = _lapack.dposv
 _dpotrf = _lapack.dpotrf
 
 
+_dpotrs = _lapack.dpotrs
+
+
 _dsyev = _lapack.dsyev
 
 
@@ -681,25 +684,33 @@ def svd_values(J: np.ndarray) -> np.ndarray:
 
 
 def min_norm_direction(J: np.ndarray, d: np.ndarray, col_scale: np.ndarray | None = None, *,
-                       gram: np.ndarray | None = None) -> np.ndarray | None:
+                       gram: np.ndarray | None = None, factor: np.ndarray | None = None) -> np.ndarray | None:
     """The exact direction w with J w = d in the least-squares sense, for J (m, n) of full
     rank: the minimum-norm solution w = S (J S)ᵀ ((J S)(J S)ᵀ)⁻¹ d when m ≤ n (S =
     diag(``col_scale``), the norm ‖S⁻¹w‖; S = I without it), else (JᵀJ)⁻¹Jᵀd. One Cholesky
     solve of the smaller Gram matrix (``gram``: that matrix, J Jᵀ or JᵀJ, when the caller
-    has it; without ``col_scale``); None when it is not positive definite or w is not
-    finite (J rank-deficient to working precision)."""
+    has it; without ``col_scale``; ``factor``: its upper Cholesky factor, `dpotrf`'s, when
+    the caller has that: the same numbers as the solve of the Gram matrix, which factors it
+    just so); None when it is not positive definite or w is not finite (J rank-deficient
+    to working precision)."""
     m, n = J.shape
     Js = J if col_scale is None else J * col_scale
-    assert gram is None or col_scale is None, "gram= is J's own Gram matrix (no col_scale)"
+    assert (gram is None and factor is None) or col_scale is None, "gram=, factor=: J's own (no col_scale)"
     if m <= n:
-        _, y, info = _dposv(Js.dot(Js.T) if gram is None else gram, d)
+        if factor is not None:
+            y, info = _dpotrs(factor, d)
+        else:
+            _, y, info = _dposv(Js.dot(Js.T) if gram is None else gram, d)
         if info != 0:
             return None
         w = y.dot(Js)
         if col_scale is not None:
             w *= col_scale
     else:
-        _, w, info = _dposv(J.T.dot(J) if gram is None else gram, d.dot(J))
+        if factor is not None:
+            w, info = _dpotrs(factor, d.dot(J))
+        else:
+            _, w, info = _dposv(J.T.dot(J) if gram is None else gram, d.dot(J))
         if info != 0:
             return None
     t = sum(w.tolist())

@@ -21,6 +21,7 @@ from .base import (
     _dot,
     _dposv,
     _dpotrf,
+    _dpotrs,
     _dsyev,
     _LazySigma,
     _positive,
@@ -231,12 +232,29 @@ class AdaptiveDLS(Solver):
         s2 = max(float(ev[0]), 0.0)
         smin = math.sqrt(s2)
         norm = _hypot(*entries)
-        w = min_norm_direction(J, d, gram=G) if smin >= EXACT_DIRECTION_FLOOR * norm else None
-        if w is None:
+        if not smin >= EXACT_DIRECTION_FLOOR * norm:
             return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
-        # the feedback, as `_raw` (its damped solve on the same G)
+        # the feedback, as `_raw` (its damped solve on the same G); undamped (σ_min ≥ ε), one
+        # Cholesky factor of G for both (G + 0·I, which `_raw` factors, is G: the same numbers)
         lam2 = self._lm2 * (1.0 - s2 * self._ie2) if s2 * self._ie2 < 1.0 else 0.0
-        c, lam, bound = self._damped(J, xi, G, wide, lam2, smin)
+        if lam2 == 0.0:
+            factor, info = _dpotrf(G)
+            w = min_norm_direction(J, d, factor=factor) if info == 0 else None
+            if w is None:
+                return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+            if wide:
+                y, info = _dpotrs(factor, xi)
+                c = y @ J
+            else:
+                c, info = _dpotrs(factor, xi @ J)
+            if info != 0:  # (not after dpotrf succeeded; `solve` says what failed)
+                return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+            lam, bound = 0.0, (1.0 / smin if smin else math.inf)
+        else:
+            w = min_norm_direction(J, d, gram=G)
+            if w is None:
+                return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+            c, lam, bound = self._damped(J, xi, G, wide, lam2, smin)
         # ‖J c‖ ≤ ‖J‖_F‖c‖: the achieved twist and the task error are finite below 1e300
         if not _hypot(*c.tolist()) * norm < 1e300:
             return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
