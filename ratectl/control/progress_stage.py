@@ -21,7 +21,7 @@ from ..solvers.base import (
     SolveResult,
     direction_result,
     direction_twist_entry,
-    sigma_at_least,
+    sigma_below,
     solve_direction_generic,
     svd_values,
     thin_svd,
@@ -106,11 +106,11 @@ class ProgressStage:
         return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0), c.dot(Vt)
 
     def sigma_for_watch(self, sigma: Any) -> float | None:
-        """σ_min of a direction solve (the ``sigma`` of `direction_qd`) when it may be below
-        the watch threshold, else None (decided without computing σ_min where the solver
-        can, `sigma_at_least`)."""
-        above, smin = sigma_at_least(sigma, self.bounds.watch_sigma)
-        return None if above else smin
+        """None when σ_min of a direction solve (the ``sigma`` of `direction_qd`) is at least
+        the watch threshold, else a number below it (σ_min, or an upper bound of it), which
+        `ProgressLimits.caps` compares with the threshold: decided without computing σ_min
+        where the solver can, on either side (`sigma_below`)."""
+        return sigma_below(sigma, self.bounds.watch_sigma)
 
     def flags(self, cyc: Cycle, q, caps, moving: bool, at_bound: bool) -> None:
         """Status flags and reasons of a progress bound (approach or jog)."""

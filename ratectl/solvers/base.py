@@ -96,7 +96,7 @@ class _LazySigma:
     decided without it (`certainly_at_least`), and every exact value becomes the new
     reference. Without G, J (an array the solver owns) gives it."""
 
-    __slots__ = ("G", "J", "ref", "shape", "entries", "_value", "_lower")
+    __slots__ = ("G", "J", "ref", "shape", "entries", "_value", "_dist")
 
     def __init__(self, G: np.ndarray | None, J: np.ndarray | None = None,
                  ref: _SigmaReference | None = None, *, shape: tuple[int, ...] | None = None,
@@ -107,7 +107,7 @@ class _LazySigma:
         self.shape = shape
         self.entries = entries
         self._value: float | None = value  # (given: computed by the caller from G, as `value` would)
-        self._lower: tuple[Any, float] | None = None  # (the reference pair, σ_ref − ‖J − J_ref‖_F)
+        self._dist: tuple[Any, float] | None = None  # (the reference pair, ‖J − J_ref‖_F)
 
     def value(self) -> float:
         """σ_min (computed once)."""
@@ -147,14 +147,32 @@ class _LazySigma:
         ref_entries, ref_shape, s_ref, norm2 = pair
         if ref_shape != self.shape or not s_ref > threshold:
             return False
-        # ‖J − J_ref‖_F: math.dist is the hypot of the differences
-        memo = self._lower
+        return s_ref - self._distance(pair) >= threshold + 1e-12 * (1.0 + norm2) / threshold
+
+    def certainly_below(self, threshold: float) -> float | None:
+        """An upper bound of σ_min(J) below ``threshold`` when σ_min(J) < threshold follows
+        from the reference by the other side of Weyl's inequality, σ_min(J) ≤ σ_ref +
+        ‖J − J_ref‖₂ ≤ σ_ref + ‖J − J_ref‖_F =: u, with a margin for σ_ref's accuracy
+        (√λ_min of a Gram matrix: about 1e-8·‖J_ref‖_F absolute near 0, hence u ≤
+        threshold − 1e-7·(1 + ‖J_ref‖_F)); None means "not decided". For a caller that only
+        compares σ_min with the threshold (a singularity watch): below it, as often as
+        above, no eigen-decomposition."""
+        pair = self.ref.pair if self.ref is not None else None
+        if pair is None or self.entries is None or not threshold > 0.0 or pair[1] != self.shape:
+            return None
+        upper = pair[2] + self._distance(pair)
+        return upper if upper <= threshold - 1e-7 * (1.0 + math.sqrt(pair[3])) else None
+
+    def _distance(self, pair: tuple) -> float:
+        """‖J − J_ref‖_F to the reference ``pair`` (math.dist: the hypot of the differences),
+        once per reference (a cycle that asks again, another threshold, reuses it)."""
+        memo = self._dist
         if memo is not None and memo[0] is pair:
-            lower = memo[1]
-        else:
-            lower = s_ref - _dist(entries, ref_entries)
-            self._lower = (pair, lower)
-        return lower >= threshold + 1e-12 * (1.0 + norm2) / threshold
+            return memo[1]
+        assert self.entries is not None
+        d = _dist(self.entries, pair[0])
+        self._dist = (pair, d)
+        return d
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -749,6 +767,19 @@ def sigma_at_least(sigma: Any, threshold: float) -> tuple[bool, float]:
     else:
         v = float(sigma)
     return v >= threshold, v
+
+
+def sigma_below(sigma: Any, threshold: float) -> float | None:
+    """None when σ_min ≥ ``threshold`` for the ``sigma`` of `Solver.solve_direction` (as
+    `sigma_at_least`), else a number below the threshold: σ_min, or, when a lazy σ's
+    reference decides it without computing σ_min (`_LazySigma.certainly_below`), an upper
+    bound of it. For a caller that only compares σ_min with the threshold."""
+    if type(sigma) is _LazySigma and not sigma.certainly_at_least(threshold):
+        upper = sigma.certainly_below(threshold)
+        if upper is not None:
+            return upper
+    above, v = sigma_at_least(sigma, threshold)
+    return None if above else v
 
 
 def solver_declares(solver: Any, name: str) -> bool:
