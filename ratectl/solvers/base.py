@@ -774,10 +774,14 @@ def sigma_below(sigma: Any, threshold: float) -> float | None:
     `sigma_at_least`), else a number below the threshold: σ_min, or, when a lazy σ's
     reference decides it without computing σ_min (`_LazySigma.certainly_below`), an upper
     bound of it. For a caller that only compares σ_min with the threshold."""
-    if type(sigma) is _LazySigma and not sigma.certainly_at_least(threshold):
-        upper = sigma.certainly_below(threshold)
-        if upper is not None:
-            return upper
+    if type(sigma) is _LazySigma:
+        v = sigma._value
+        if v is not None:  # (computed already, or given: `AdaptiveDLS` has it from its schedule)
+            return None if v >= threshold else v
+        if not sigma.certainly_at_least(threshold):
+            upper = sigma.certainly_below(threshold)
+            if upper is not None:
+                return upper
     above, v = sigma_at_least(sigma, threshold)
     return None if above else v
 
