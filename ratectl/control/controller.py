@@ -144,7 +144,7 @@ class ResolvedRateController:
         self._servo = Servo(chain, self._progress, m, self.filter, gain=self.gain,
                             position_tolerance=self.position_tolerance,
                             orientation_tolerance=self.orientation_tolerance, blocked=blocked,
-                            solve=self._solve, halt=self._halt)
+                            solve=self._solve, adopt=self._solver_stage.adopt, halt=self._halt)
         self._jog = JogStage(chain, self._progress, m, adds_rows=solver_declares(self.solver, "adds_rows"),
                              solve=self._solve, halt=self._halt)
         self._limiter = Limiter(chain, self.limits, m, self.filter, singular_sigma=self.singular_sigma,

@@ -15,7 +15,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..singularity import analyze
-from ..solvers.base import Solver, SolveResult, direction_result, sigma_at_least, svd_values, thin_svd
+from ..solvers.base import (
+    DirectionTwist,
+    Solver,
+    SolveResult,
+    direction_result,
+    direction_twist_entry,
+    sigma_below,
+    solve_direction_generic,
+    svd_values,
+    thin_svd,
+)
 from .cycle import Cycle
 from .progress import ProgressLimits
 
@@ -47,7 +57,8 @@ class ProgressStage:
         self.singular_kind: str | None = None
         self._method = str(getattr(solver, "method", "solver"))
         self._solve_direction = (solver.solve_direction if isinstance(solver, Solver)
-                                 else lambda J, d, **kw: _generic_direction(solver, J, d, **kw))
+                                 else lambda J, d, **kw: solve_direction_generic(solver, J, d, **kw))
+        self._direction_twist = direction_twist_entry(solver)
 
     def direction_qd(self, J: np.ndarray, d: np.ndarray, q: np.ndarray, dt: float
                      ) -> tuple[np.ndarray, Any, float]:
@@ -55,6 +66,14 @@ class ProgressStage:
         the joint limits (`Solver.solve_direction`, the validated entry: exact where J is
         regular), what says σ_min(J) (for `sigma_for_watch`) and the damping w has."""
         return self._solve_direction(J, d, q=q, dt=dt)
+
+    def direction_twist(self, J: np.ndarray, d: np.ndarray, xi: np.ndarray, q: np.ndarray,
+                        dt: float) -> DirectionTwist:
+        """`direction_qd` for ``d`` and the solver's answer for the twist ``xi`` on the same J,
+        both without the joint limits (`Solver.solve_direction_twist`): the servo's
+        direction w and its feedback c = solver(J, ξ), from one entry that shares their
+        work on J."""
+        return self._direction_twist(J, d, xi, q=q, dt=dt)
 
     def direction_result(self, J: np.ndarray, d: np.ndarray, w: np.ndarray, sigma: Any,
                          damping: float) -> Any:
@@ -87,11 +106,11 @@ class ProgressStage:
         return float(S[-1]), (float(c[-1] * c[-1]) / total if total > 0.0 else 0.0), c.dot(Vt)
 
     def sigma_for_watch(self, sigma: Any) -> float | None:
-        """σ_min of a direction solve (the ``sigma`` of `direction_qd`) when it may be below
-        the watch threshold, else None (decided without computing σ_min where the solver
-        can, `sigma_at_least`)."""
-        above, smin = sigma_at_least(sigma, self.bounds.watch_sigma)
-        return None if above else smin
+        """None when σ_min of a direction solve (the ``sigma`` of `direction_qd`) is at least
+        the watch threshold, else a number below it (σ_min, or an upper bound of it), which
+        `ProgressLimits.caps` compares with the threshold: decided without computing σ_min
+        where the solver can, on either side (`sigma_below`)."""
+        return sigma_below(sigma, self.bounds.watch_sigma)
 
     def flags(self, cyc: Cycle, q, caps, moving: bool, at_bound: bool) -> None:
         """Status flags and reasons of a progress bound (approach or jog)."""
@@ -116,9 +135,3 @@ class ProgressStage:
             cyc.reasons.append(f"moving at the speed limit of joint {self.bounds.name(caps.joint)} "
                                "along the commanded direction")
 
-
-def _generic_direction(solver: Any, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
-                       dt: float | None) -> tuple[np.ndarray, Any, float]:
-    """`Solver.solve_direction` for a solver object that is not a `Solver` (its ``solve``)."""
-    res = solver.solve(J, d, q=q, dt=dt)
-    return np.array(res.qd, dtype=float), res, float(getattr(res, "damping", 0.0))

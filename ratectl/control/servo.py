@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import RatectlError, SingularityError
-from ..solvers.base import SolveResult, result_with_qd
+from ..solvers.base import DirectionTwist, SolveResult
 from ..solvers.ik import ik_iterate
 from ..spatial import pose_error_into, pose_error_rows
 from .approach import AT_BLOCK, JointLine, StraightApproach
@@ -57,12 +57,14 @@ class Servo:
         gain: the feedback gain K (6,) [1/s].
         position_tolerance [m], orientation_tolerance [rad]: "target reached".
         blocked: ``"joint-space"`` or ``"stop"`` where the straight line is blocked.
-        solve, halt: the controller's solve stage and safe halt.
+        solve, adopt, halt: the controller's solve stage (`SolveStage.solve`, `SolveStage.adopt`)
+            and safe halt.
     """
 
     def __init__(self, chain: Chain, progress: ProgressStage, motion: Motion, filter: VelocityFilter | None,
                  *, gain: np.ndarray, position_tolerance: float, orientation_tolerance: float, blocked: str,
-                 solve: Callable[..., Command | None], halt: Callable[..., Command]) -> None:
+                 solve: Callable[..., Command | None], adopt: Callable[..., Command | None],
+                 halt: Callable[..., Command]) -> None:
         self.chain = chain
         self._progress = progress
         self._m = motion
@@ -74,6 +76,7 @@ class Servo:
         self.orientation_tolerance = orientation_tolerance
         self.blocked = blocked
         self._solve = solve
+        self._adopt = adopt
         self._halt = halt
         # an arm of fewer than 6 joints cannot follow a line in 6-D: its approach starts anew
         # from the measured pose every period (straight toward the target from where it is)
@@ -96,8 +99,9 @@ class Servo:
         when the target changed), one period of the progress within the joint limits mapped
         onto it (`ProgressLimits`), and the command q̇ = ṡ̄·w + solver(K·e_ref) for the twist
         ξ = ṡ̄·d + K·e_ref: the mean progress speed of the period along the direction's own
-        answer w (`Solver.solve_direction`, exact where J is regular) plus the solved feedback
-        on the error to the reference pose T(s), both without the limits (the limiter's)."""
+        answer w (exact where J is regular) plus the solved feedback on the error to the
+        reference pose T(s), both without the limits (the limiter's), from one solver entry
+        on J (`Solver.solve_direction_twist`)."""
         self._idle = False
         T, J = self.chain.fk_jacobian(q)
         cyc.J = J
@@ -137,14 +141,14 @@ class Servo:
         caps = None
         w = None
         speed = 0.0
+        # the feedback is solved without the limits (a box clips joints one by one and turns
+        # the tool off its line): the progress is already within them, the limiter scales the rest
+        cyc.xi = self.gain * e_ref
         if ap.L > 0.0:
-            try:
-                w, sig_w, _ = self._progress.direction_qd(J, ap.d, q, dt)
-            except SingularityError as err:
-                return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
-                                  error=cyc.e, ep=cyc.ep, eo=cyc.eo)
-            except (RatectlError, np.linalg.LinAlgError) as err:
-                return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
+            ans = self._direction_twist(cyc, q, dt, J, ap.d)
+            if not isinstance(ans, DirectionTwist):
+                return ans  # (the halt's command)
+            w, sig_w = ans.w, ans.sigma
             if ap.end_accel == math.inf and not self._pursuit and ap.settled:
                 self._end_bounds(ap, q, target, dt)  # (a target that moves every period: not yet)
             pr = self._progress
@@ -161,18 +165,16 @@ class Servo:
                 # period (ṡ₁ with s̈₁), where q + q̇·dt needs the period's mean speed
                 speed = ap.sd
             ap.w_prev = w
-        # the feedback solved without the limits (a box clips joints one by one and turns the
-        # tool off its line): the progress is already within them, the limiter scales the rest
-        cyc.xi = self.gain * e_ref
-        halt = self._solve(cyc, q, dt, None, bounded=False)
-        if halt is not None:
-            return halt
-        if w is not None and speed != 0.0:
-            # the progress along the line on its own direction w (exact where J is regular),
-            # not the solver's answer for ṡ·d, which a constant damping shrinks and turns
-            cyc.xi = cyc.xi + ap.d * speed
-            cyc.qd = cyc.qd + w * speed
-            cyc.res = result_with_qd(cyc.res, cyc.J, cyc.xi, cyc.qd)
+            if speed != 0.0:
+                # the progress along the line on its own direction w (exact where J is regular),
+                # not the solver's answer for ṡ·d, which a constant damping shrinks and turns
+                cyc.xi = cyc.xi + ap.d * speed
+                cyc.qd = cyc.qd + w * speed
+            cyc.res = ans.result(cyc.xi, cyc.qd)
+        else:
+            halt = self._solve(cyc, q, dt, None, bounded=False)
+            if halt is not None:
+                return halt
         if w is not None and self.filter is not None:
             # the reference's acceleration s̈·w + ṡ·ẇ, which the filter then meets without lag
             cyc.qdd_ff = w * ap.sdd if w_rate is None else w * ap.sdd + w_rate * ap.sd
@@ -197,6 +199,20 @@ class Servo:
                     caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
                 self._progress.flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
         return None
+
+    def _direction_twist(self, cyc: Cycle, q, dt, J, d) -> DirectionTwist | Command:
+        """The line's direction w and the feedback c = solver(J, ξ) for ξ = ``cyc.xi``, on the
+        same J (`ProgressStage.direction_twist`), c taken as the cycle's command
+        (`SolveStage.adopt`); the halt's command when the solver fails or c is not finite."""
+        try:
+            ans = self._progress.direction_twist(J, d, cyc.xi, q, dt)
+        except SingularityError as err:
+            return self._halt(q, dt, f"singular: {err}", status="singular", sigma_min=err.sigma_min,
+                              error=cyc.e, ep=cyc.ep, eo=cyc.eo)
+        except (RatectlError, np.linalg.LinAlgError) as err:
+            return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
+        halt = self._adopt(cyc, q, dt, ans, ans.qd)
+        return ans if halt is None else halt
 
     def _restart_from_arm(self, ap: StraightApproach, target, T, J) -> None:
         """A new line from the arm's pose ``T`` to ``target``, with the commanded motion J q̇

@@ -88,9 +88,19 @@ class SolveStage:
         except (RatectlError, np.linalg.LinAlgError) as err:
             return self._halt(q, dt, f"solver failed: {err}", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
         qd = res.qd if qd_ff is None else res.qd + qd_ff
+        halt = self.adopt(cyc, q, dt, res, qd, enforced)
+        if halt is None:
+            cyc.res = res
+        return halt
+
+    def adopt(self, cyc: Cycle, q, dt, res: Any, qd: np.ndarray, enforced: bool = False) -> Command | None:
+        """Take the solver's answer q̇ = ``qd`` (its velocity policy, scale and active limits
+        from ``res``, a `SolveResult` or a `DirectionTwist`) as the cycle's command: the halt's
+        Command for a non-finite q̇, else None with ``cyc.qd`` and the status lists filled
+        (``cyc.res`` is the caller's). The unbounded feedback of a servo, solved beside its
+        direction (`Solver.solve_direction_twist`), is taken here too."""
         if not _finite_sum(qd):
             return self._halt(q, dt, "solver returned a non-finite q̇", error=cyc.e, ep=cyc.ep, eo=cyc.eo)
-        cyc.res = res
         cyc.qd = qd
         cyc.enforced = enforced
         cyc.active = list(res.limits_active)

@@ -24,7 +24,8 @@ if TYPE_CHECKING:
     from ..model.chain import Chain
 
 __all__ = ['SolveResult', 'Solver', 'POSITION_ONLY', 'ORIENTATION_ONLY', 'VELOCITY_POLICIES',
-           'solver_declares', 'validated_solve', 'validated_solve_generic', 'direction_result']
+           'solver_declares', 'validated_solve', 'validated_solve_generic', 'direction_result',
+           'DirectionTwist', 'direction_twist_entry', 'solve_direction_generic']
 
 
 VELOCITY_POLICIES = ("scale", "clip", None)
@@ -51,6 +52,9 @@ _dposv = _lapack.dposv
 
 
 _dpotrf = _lapack.dpotrf
+
+
+_dpotrs = _lapack.dpotrs
 
 
 _dsyev = _lapack.dsyev
@@ -92,18 +96,18 @@ class _LazySigma:
     decided without it (`certainly_at_least`), and every exact value becomes the new
     reference. Without G, J (an array the solver owns) gives it."""
 
-    __slots__ = ("G", "J", "ref", "shape", "entries", "_value", "_lower")
+    __slots__ = ("G", "J", "ref", "shape", "entries", "_value", "_dist")
 
     def __init__(self, G: np.ndarray | None, J: np.ndarray | None = None,
                  ref: _SigmaReference | None = None, *, shape: tuple[int, ...] | None = None,
-                 entries: list[float] | None = None) -> None:
+                 entries: list[float] | None = None, value: float | None = None) -> None:
         self.G = G
         self.J = J
         self.ref = ref
         self.shape = shape
         self.entries = entries
-        self._value: float | None = None
-        self._lower: tuple[Any, float] | None = None  # (the reference pair, σ_ref − ‖J − J_ref‖_F)
+        self._value: float | None = value  # (given: computed by the caller from G, as `value` would)
+        self._dist: tuple[Any, float] | None = None  # (the reference pair, ‖J − J_ref‖_F)
 
     def value(self) -> float:
         """σ_min (computed once)."""
@@ -143,14 +147,32 @@ class _LazySigma:
         ref_entries, ref_shape, s_ref, norm2 = pair
         if ref_shape != self.shape or not s_ref > threshold:
             return False
-        # ‖J − J_ref‖_F: math.dist is the hypot of the differences
-        memo = self._lower
+        return s_ref - self._distance(pair) >= threshold + 1e-12 * (1.0 + norm2) / threshold
+
+    def certainly_below(self, threshold: float) -> float | None:
+        """An upper bound of σ_min(J) below ``threshold`` when σ_min(J) < threshold follows
+        from the reference by the other side of Weyl's inequality, σ_min(J) ≤ σ_ref +
+        ‖J − J_ref‖₂ ≤ σ_ref + ‖J − J_ref‖_F =: u, with a margin for σ_ref's accuracy
+        (√λ_min of a Gram matrix: about 1e-8·‖J_ref‖_F absolute near 0, hence u ≤
+        threshold − 1e-7·(1 + ‖J_ref‖_F)); None means "not decided". For a caller that only
+        compares σ_min with the threshold (a singularity watch): below it, as often as
+        above, no eigen-decomposition."""
+        pair = self.ref.pair if self.ref is not None else None
+        if pair is None or self.entries is None or not threshold > 0.0 or pair[1] != self.shape:
+            return None
+        upper = pair[2] + self._distance(pair)
+        return upper if upper <= threshold - 1e-7 * (1.0 + math.sqrt(pair[3])) else None
+
+    def _distance(self, pair: tuple) -> float:
+        """‖J − J_ref‖_F to the reference ``pair`` (math.dist: the hypot of the differences),
+        once per reference (a cycle that asks again, another threshold, reuses it)."""
+        memo = self._dist
         if memo is not None and memo[0] is pair:
-            lower = memo[1]
-        else:
-            lower = s_ref - _dist(entries, ref_entries)
-            self._lower = (pair, lower)
-        return lower >= threshold + 1e-12 * (1.0 + norm2) / threshold
+            return memo[1]
+        assert self.entries is not None
+        d = _dist(self.entries, pair[0])
+        self._dist = (pair, d)
+        return d
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -325,6 +347,54 @@ def direction_result(J: np.ndarray, d: np.ndarray, w: np.ndarray, *, damping: fl
     return r
 
 
+
+class DirectionTwist:
+    """What `Solver.solve_direction_twist` answers for a direction d and a twist ξ on the
+    same J, both without limits: the direction's answer ``w`` (n,), ``sigma`` and
+    ``damping`` (as `Solver.solve_direction` returns them) and the twist's ``qd`` (n,), the
+    correction c = solver(J, ξ) of `Solver.solve_validated` with ``limits=None``, with the
+    ``velocity_policy``, ``velocity_scale`` and ``limits_active`` of its result. `result`
+    gives the `SolveResult` of a command q̇ made of that answer and a part added to it (a
+    servo's progress along w: q̇ = c + ṡ·w for ξ + ṡ·d), built only then.
+
+    ``feedback`` is the twist's `SolveResult` when the solver made one (the generic entry);
+    a solver that answers both at once passes ``make`` instead, a callable
+    ``make(xi, qd) -> SolveResult`` with the contract of `result`."""
+
+    __slots__ = ("w", "sigma", "damping", "qd", "velocity_policy", "velocity_scale", "limits_active",
+                 "_J", "_feedback", "_make")
+
+    def __init__(self, w: np.ndarray, sigma: Any, damping: float, qd: np.ndarray, *, J: np.ndarray,
+                 feedback: SolveResult | None = None, make: Any = None,
+                 velocity_policy: str = "none", velocity_scale: float = 1.0,
+                 limits_active: tuple[str, ...] = ()) -> None:
+        self.w = w
+        self.sigma = sigma
+        self.damping = damping
+        self.qd = qd
+        self._J = J
+        self._feedback = feedback
+        self._make = make
+        if feedback is not None:
+            velocity_policy = feedback.velocity_policy
+            velocity_scale = feedback.velocity_scale
+            limits_active = feedback.limits_active
+        self.velocity_policy = velocity_policy
+        self.velocity_scale = velocity_scale
+        self.limits_active = limits_active
+
+    def result(self, xi: np.ndarray, qd: np.ndarray) -> SolveResult:
+        """The `SolveResult` of the command ``qd`` (n,) for the twist ``xi`` (m,): the twist's
+        own result when ``qd`` is its answer (``qd is self.qd``); otherwise that result for
+        another q̇ (`result_with_qd`: q̇ = ``qd``, achieved J q̇, task error ξ − J q̇; damping,
+        σ_min, method, policy, bounds and info the twist's)."""
+        make = self._make
+        if make is not None:
+            return make(xi, qd)
+        fb = self._feedback
+        assert fb is not None
+        return fb if qd is self.qd else result_with_qd(fb, self._J, xi, qd)
+
 def _make_result(qd, J, xi, damping, sigma, method, policy, scale, bound, active, fallback, info):
     achieved = J @ qd
     return SolveResult(qd=qd, achieved=achieved, task_error=xi - achieved, damping=damping,
@@ -443,6 +513,11 @@ class Solver:
             cls.solve_validated = Solver.solve_validated  # type: ignore[method-assign]
         if "solve" in cls.__dict__ and "solve_direction" not in cls.__dict__:
             cls.solve_direction = Solver.solve_direction  # type: ignore[method-assign]
+        # the joint entry answers as the two it joins: a class that changes either of them
+        # (or ``solve``) and not the joint entry gets the generic one, which calls them
+        if (any(k in cls.__dict__ for k in ("solve", "solve_direction", "solve_validated"))
+                and "solve_direction_twist" not in cls.__dict__):
+            cls.solve_direction_twist = Solver.solve_direction_twist  # type: ignore[method-assign]
 
     def solve_validated(self, J: np.ndarray, xi: np.ndarray, *, limits: Limits | Chain | None,
                         q: np.ndarray | None, qd_prev: np.ndarray | None, dt: float | None,
@@ -470,6 +545,19 @@ class Solver:
         default calls `solve`."""
         res = self.solve(J, d, q=q, dt=dt)
         return np.array(res.qd, dtype=float), res, float(res.damping)
+
+    def solve_direction_twist(self, J: np.ndarray, d: np.ndarray, xi: np.ndarray, *,
+                              q: np.ndarray | None, dt: float | None) -> DirectionTwist:
+        """A direction ``d`` (m,) and a twist ``xi`` (m,) on the same J, both without limits,
+        for a caller that has validated its inputs (as `solve_validated`): the answers of
+        ``solve_direction(J, d, q=q, dt=dt)`` and of ``solve_validated(J, xi, limits=None,
+        q=q, qd_prev=None, dt=dt)``, in that order, as a `DirectionTwist` (a servo's cycle: its
+        progress along w = solver(d) plus the feedback c = solver(K·e) it solves on the same
+        J). The default calls the two; a solver that shares their work on J (the QP,
+        `AdaptiveDLS`) overrides it with the same answers. An error of either is raised."""
+        w, sigma, damping = self.solve_direction(J, d, q=q, dt=dt)
+        res = self.solve_validated(J, xi, limits=None, q=q, qd_prev=None, dt=dt)
+        return DirectionTwist(w, sigma, damping, res.qd, J=J, feedback=res)
 
     def __init__(self, *, velocity_policy: str | None = "scale", task_weights: ArrayLike | None = None,
                  joint_weights: ArrayLike | None = None) -> None:
@@ -614,25 +702,33 @@ def svd_values(J: np.ndarray) -> np.ndarray:
 
 
 def min_norm_direction(J: np.ndarray, d: np.ndarray, col_scale: np.ndarray | None = None, *,
-                       gram: np.ndarray | None = None) -> np.ndarray | None:
+                       gram: np.ndarray | None = None, factor: np.ndarray | None = None) -> np.ndarray | None:
     """The exact direction w with J w = d in the least-squares sense, for J (m, n) of full
     rank: the minimum-norm solution w = S (J S)ᵀ ((J S)(J S)ᵀ)⁻¹ d when m ≤ n (S =
     diag(``col_scale``), the norm ‖S⁻¹w‖; S = I without it), else (JᵀJ)⁻¹Jᵀd. One Cholesky
     solve of the smaller Gram matrix (``gram``: that matrix, J Jᵀ or JᵀJ, when the caller
-    has it; without ``col_scale``); None when it is not positive definite or w is not
-    finite (J rank-deficient to working precision)."""
+    has it; without ``col_scale``; ``factor``: its upper Cholesky factor, `dpotrf`'s, when
+    the caller has that: the same numbers as the solve of the Gram matrix, which factors it
+    just so); None when it is not positive definite or w is not finite (J rank-deficient
+    to working precision)."""
     m, n = J.shape
     Js = J if col_scale is None else J * col_scale
-    assert gram is None or col_scale is None, "gram= is J's own Gram matrix (no col_scale)"
+    assert (gram is None and factor is None) or col_scale is None, "gram=, factor=: J's own (no col_scale)"
     if m <= n:
-        _, y, info = _dposv(Js.dot(Js.T) if gram is None else gram, d)
+        if factor is not None:
+            y, info = _dpotrs(factor, d)
+        else:
+            _, y, info = _dposv(Js.dot(Js.T) if gram is None else gram, d)
         if info != 0:
             return None
         w = y.dot(Js)
         if col_scale is not None:
             w *= col_scale
     else:
-        _, w, info = _dposv(J.T.dot(J) if gram is None else gram, d.dot(J))
+        if factor is not None:
+            w, info = _dpotrs(factor, d.dot(J))
+        else:
+            _, w, info = _dposv(J.T.dot(J) if gram is None else gram, d.dot(J))
         if info != 0:
             return None
     t = sum(w.tolist())
@@ -673,6 +769,23 @@ def sigma_at_least(sigma: Any, threshold: float) -> tuple[bool, float]:
     return v >= threshold, v
 
 
+def sigma_below(sigma: Any, threshold: float) -> float | None:
+    """None when σ_min ≥ ``threshold`` for the ``sigma`` of `Solver.solve_direction` (as
+    `sigma_at_least`), else a number below the threshold: σ_min, or, when a lazy σ's
+    reference decides it without computing σ_min (`_LazySigma.certainly_below`), an upper
+    bound of it. For a caller that only compares σ_min with the threshold."""
+    if type(sigma) is _LazySigma:
+        v = sigma._value
+        if v is not None:  # (computed already, or given: `AdaptiveDLS` has it from its schedule)
+            return None if v >= threshold else v
+        if not sigma.certainly_at_least(threshold):
+            upper = sigma.certainly_below(threshold)
+            if upper is not None:
+                return upper
+    above, v = sigma_at_least(sigma, threshold)
+    return None if above else v
+
+
 def solver_declares(solver: Any, name: str) -> bool:
     """The solver contract's flag ``name`` (``"enforces_limits"``, ``"adds_rows"``): a
     `Solver`'s attribute; an object that is not a `Solver` (a wrapper with a ``solve``
@@ -680,6 +793,30 @@ def solver_declares(solver: Any, name: str) -> bool:
     if isinstance(solver, Solver):
         return bool(getattr(solver, name))
     return bool(getattr(solver, name, False))
+
+
+def direction_twist_entry(solver: Any):
+    """The joint direction-and-twist entry of any solver object (`Solver.solve_direction_twist`):
+    a `Solver`'s own, or for an object that is not a `Solver` the same answers through its
+    ``solve`` (the direction's result as ``sigma``, the twist's through
+    `validated_solve_generic`)."""
+    if isinstance(solver, Solver):
+        return solver.solve_direction_twist
+
+    def entry(J: np.ndarray, d: np.ndarray, xi: np.ndarray, *, q: np.ndarray | None,
+              dt: float | None) -> DirectionTwist:
+        w, r, damping = solve_direction_generic(solver, J, d, q=q, dt=dt)
+        res = validated_solve_generic(solver, J, xi, limits=None, q=q, qd_prev=None, dt=dt)
+        return DirectionTwist(w, r, damping, res.qd, J=J, feedback=res)
+    return entry
+
+
+def solve_direction_generic(solver: Any, J: np.ndarray, d: np.ndarray, *, q: np.ndarray | None,
+                            dt: float | None) -> tuple[np.ndarray, Any, float]:
+    """`Solver.solve_direction` for a solver object that is not a `Solver`, through its
+    ``solve``: (a copy of its q̇, its result, its damping or 0)."""
+    res = solver.solve(J, d, q=q, dt=dt)
+    return np.array(res.qd, dtype=float), res, float(getattr(res, "damping", 0.0))
 
 
 def validated_solve(solver: Any):

@@ -5,6 +5,7 @@ and selectively damped least squares (Buss & Kim 2005).
 from __future__ import annotations
 
 import math
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -12,13 +13,19 @@ from numpy.typing import ArrayLike
 
 from ..errors import InputError, SingularityError
 from .base import (
+    _MAX_ENTRY,
+    EXACT_DIRECTION_FLOOR,
+    DirectionTwist,
     Solver,
+    SolveResult,
     _dot,
     _dposv,
     _dpotrf,
+    _dpotrs,
     _dsyev,
     _LazySigma,
     _positive,
+    _store,
     exact_direction_floor,
     min_norm_direction,
     svd_values,
@@ -29,6 +36,10 @@ __all__ = ['DLS', 'AdaptiveDLS', 'SDLS', 'adaptive_damping']
 
 
 _SQRT_HALF = math.sqrt(0.5)
+
+_hypot = math.hypot
+
+_new = object.__new__
 
 
 def adaptive_damping(sigma: ArrayLike, *, epsilon: float, max_damping: float):
@@ -197,6 +208,68 @@ class AdaptiveDLS(Solver):
         below ε on its own, turning the motion); at a singularity, the damped answer."""
         return exact_direction(self, J, d, q=q, dt=dt)
 
+    def solve_direction_twist(self, J: np.ndarray, d: np.ndarray, xi: np.ndarray, *,
+                              q: np.ndarray | None, dt: float | None) -> DirectionTwist:
+        """`Solver.solve_direction_twist` in the ``"sigma"`` mode from one Gram matrix G (JJᵀ,
+        or JᵀJ for a tall J) and one eigen-decomposition of it: σ_min = √λ_min(G) both says
+        whether the direction is exact (`exact_direction`: above `exact_direction_floor`,
+        w = `min_norm_direction`) and schedules the feedback's damping λ² = (1 −
+        (σ_min/ε)²)·λ_max² (0 above ε), c = Jᵀ(G + λ²I)⁻¹ξ as `solve` without limits; the
+        feedback's `SolveResult` (``info["gain_bound"]`` as `solve`'s) is built by
+        `DirectionTwist.result` only. Other modes, weights, J near a singularity or out of
+        range take the two entries in turn (the default): the same answers."""
+        if self.mode != "sigma" or self._weighted:
+            return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+        m, n = J.shape
+        entries = J.ravel().tolist()
+        if not _hypot(*entries, *xi.tolist()) < _MAX_ENTRY:  # (the check of `solve`)
+            return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+        wide = m <= n
+        G = _dot(J, J.T) if wide else _dot(J.T, J)
+        ev, _, info = _dsyev(G, compute_v=0)
+        if info != 0:
+            return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+        s2 = max(float(ev[0]), 0.0)
+        smin = math.sqrt(s2)
+        norm = _hypot(*entries)
+        if not smin >= EXACT_DIRECTION_FLOOR * norm:
+            return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+        # the feedback, as `_raw` (its damped solve on the same G); undamped (σ_min ≥ ε), one
+        # Cholesky factor of G for both (G + 0·I, which `_raw` factors, is G: the same numbers)
+        lam2 = self._lm2 * (1.0 - s2 * self._ie2) if s2 * self._ie2 < 1.0 else 0.0
+        if lam2 == 0.0:
+            factor, info = _dpotrf(G)
+            w = min_norm_direction(J, d, factor=factor) if info == 0 else None
+            if w is None:
+                return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+            if wide:
+                y, info = _dpotrs(factor, xi)
+                c = y @ J
+            else:
+                c, info = _dpotrs(factor, xi @ J)
+            if info != 0:  # (not after dpotrf succeeded; `solve` says what failed)
+                return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+            lam, bound = 0.0, (1.0 / smin if smin else math.inf)
+        else:
+            w = min_norm_direction(J, d, gram=G)
+            if w is None:
+                return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+            c, lam, bound = self._damped(J, xi, G, wide, lam2, smin)
+        # ‖J c‖ ≤ ‖J‖_F‖c‖: the achieved twist and the task error are finite below 1e300
+        if not _hypot(*c.tolist()) * norm < 1e300:
+            return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+
+        def make(xi_c: np.ndarray, qd: np.ndarray) -> SolveResult:
+            """The feedback's result (as `solve`'s without limits) for the command ``qd``."""
+            achieved = J.dot(qd)
+            r = _new(SolveResult)
+            _store(r, qd if qd is c else qd.copy(), achieved, xi_c - achieved, lam, smin, self.method,
+                   "none", 1.0, np.zeros(n, dtype=bool), (), False,
+                   MappingProxyType({"gain_bound": bound}))
+            return r
+
+        return DirectionTwist(w, _LazySigma(G, value=smin), 0.0, c, J=J, make=make)
+
     def gain_bound(self) -> float:
         """sup ‖q̇‖/‖ξ‖ over all J for the σ modes (see the class docstring)."""
         return _gain_bound_adaptive(self.epsilon, self.max_damping)
@@ -211,7 +284,6 @@ class AdaptiveDLS(Solver):
         m, n = J.shape
         wide = m <= n
         G = J @ J.T if wide else J.T @ J
-        k = G.shape[0]
         if self.mode == "sigma":
             w, _, info = _dsyev(G, compute_v=0)
             if info != 0:
@@ -228,7 +300,20 @@ class AdaptiveDLS(Solver):
             lam2 = self._lm2 * (1.0 - r) ** 2 if r < 1.0 else 0.0
             sigma = _LazySigma(G)
             smin = None
+        qd, lam, bound = self._damped(J, xi, G, wide, lam2, smin)
+        info_d = {"gain_bound": bound}
+        if self.mode == "manipulability":
+            info_d["manipulability"] = wm
+        return qd, lam, sigma, info_d
+
+    def _damped(self, J, xi, G, wide: bool, lam2: float,
+                smin: float | None) -> tuple[np.ndarray, float, float]:
+        """(q̇, λ, the gain bound) of q̇ = Jᵀ(G + λ²I)⁻¹ξ for a wide J (G = JJᵀ), else
+        (G + λ²I)⁻¹Jᵀξ (G = JᵀJ), with ``smin`` σ_min (None when not known): the bound
+        ‖q̇‖/‖ξ‖ ≤ σ/(σ² + λ²) at σ_min, 1/(2λ) at most, 1/σ_min undamped. Raises
+        `SingularityError` when G + λ²I is not positive definite (λ = 0 at a singularity)."""
         lam = math.sqrt(lam2)
+        k = G.shape[0]
         eye = self._eye.get(k)
         if eye is None:
             eye = self._eye[k] = np.eye(k)
@@ -250,10 +335,7 @@ class AdaptiveDLS(Solver):
                 bound = smin / (smin * smin + lam2)
         else:
             bound = 1.0 / smin if smin else math.inf
-        info_d = {"gain_bound": bound}
-        if self.mode == "manipulability":
-            info_d["manipulability"] = wm
-        return qd, lam, sigma, info_d
+        return qd, lam, bound
 
     def _filtered(self, J, xi):
         u, s, vt = thin_svd(J)

@@ -76,6 +76,35 @@ def test_sigma_min_at_least_is_the_comparison_of_the_value_along_a_singular_cros
     assert certified > 0
 
 
+def test_sigma_below_is_the_comparison_of_the_value_along_a_singular_crossing(ur5e_wrist_line):
+    """`sigma_below` (the servo's and the jog's singularity watch) from the QP's lazy σ: None
+    exactly when σ_min ≥ t, else a number below t that bounds σ_min from above; along a line
+    through the wrist singularity, where the value is never read, the reference decides most
+    steps below the threshold too (no eigen-decomposition), and never wrongly."""
+    from ratectl.solvers.base import sigma_below
+
+    arm, line, q0 = ur5e_wrist_line
+    qp = S.QP()
+    run = rc.follow(arm, line, q0, dt=2e-3)
+    decided_below = 0
+    for q in run.q:
+        J = arm.jacobian(q)
+        exact = float(np.linalg.svd(J, compute_uv=False)[-1])
+        lazy = _SIGMA_SLOT.__get__(qp.solve(J, np.zeros(6), limits=arm, q=q, dt=2e-3), SolveResult)
+        assert type(lazy) is _LazySigma
+        t = 0.2
+        upper = lazy.certainly_below(t)
+        if upper is not None:
+            decided_below += 1
+            assert exact < t and exact <= upper + 1e-12 and upper < t
+        got = sigma_below(lazy, t)
+        if abs(exact - t) > 1e-9:
+            assert (got is None) == (exact >= t)
+        if got is not None:
+            assert got < t and exact <= got + 1e-9
+    assert decided_below > 0
+
+
 def test_qp_controller_flags_damped_exactly_below_singular_sigma(ur5e_wrist_line):
     """A QP's λ is reported ("damped") exactly when σ_min < singular_sigma, whether the
     controller certified σ_min or computed it, and Command.sigma_min is the exact value."""

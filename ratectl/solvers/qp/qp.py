@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from operator import sub as _sub
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -16,6 +17,9 @@ from ...arrays import shared_zeros
 from ...errors import InputError, SolverError
 from ...model.limits import Limits
 from ..base import (
+    _MAX_ENTRY,
+    EXACT_DIRECTION_FLOOR,
+    DirectionTwist,
     Solver,
     SolveResult,
     _check_finite,
@@ -25,6 +29,7 @@ from ..base import (
     _owned_result,
     _positive,
     _SigmaReference,
+    _store,
     exact_direction_floor,
     min_norm_direction,
     sigma_at_least,
@@ -56,6 +61,10 @@ _KKT_TOL = 1e-9  # accepted scaled KKT violation (see kkt_violation)
 
 
 _dot = np.dot
+
+_hypot = math.hypot
+
+_new = object.__new__
 
 
 class QP(Solver):
@@ -130,6 +139,8 @@ class QP(Solver):
         self._reg: dict[int, np.ndarray] = {}
         self._reg_small: dict[int, bool] = {}  # the regulariser's entries are below 1e300
         self._sigma_ref = _SigmaReference()  # the last exact σ_min, for sigma_min_at_least
+        # the info of an unconstrained answer without limits (`solve_direction_twist`'s feedback)
+        self._info_unconstrained: dict[str, Any] | None = None
         # the last J's objective terms and P's Cholesky factor: a control cycle solves twice
         # with the same J (the direction of a progress, then the command), and the second
         # solve only needs b = Jᵀξ and two triangular solves ((entries, shape, P, σ, factor))
@@ -232,6 +243,70 @@ class QP(Solver):
                 return w, sigma, self.damping
         res = self.solve(J, d, q=q, dt=dt)  # (the general path: its checks and errors)
         return np.array(res.qd, dtype=float), res, float(res.damping)
+
+    def solve_direction_twist(self, J: np.ndarray, d: np.ndarray, xi: np.ndarray, *,
+                              q: np.ndarray | None, dt: float | None) -> DirectionTwist:
+        """`Solver.solve_direction_twist` with one P = JᵀJ + λ²W_q for both: where J is regular
+        (σ_min above `exact_direction_floor`) the exact direction w (`min_norm_direction`,
+        as `solve_direction`) and the feedback c = P⁻¹Jᵀξ, the unconstrained minimiser that
+        `solve_validated` answers without limits (``info["status"] == "unconstrained"``),
+        from one Cholesky factor of P; the feedback's `SolveResult` is built by
+        `DirectionTwist.result` only, for the command it ends in. Anything else (task
+        weights, an objective, no shortcut, J near a singularity or out of range, a factor
+        that fails) takes the two entries in turn (the default): the same answers."""
+        m, n = J.shape
+        reg = self._reg.get(n)
+        if self._rows is not None or self.objective is not None or not (self.shortcut and self._pd) \
+                or reg is None or not self._reg_small[n]:
+            return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+        # the input checks of both entries (`_checked_entries`: √(‖J‖²_F + ‖d‖²) and
+        # √(‖J‖²_F + ‖ξ‖²) below 1e145), from ‖J‖_F once, with a margin for its rounding
+        # (anything closer takes the entries themselves, which check exactly)
+        entries = J.ravel().tolist()
+        norm = _hypot(*entries)
+        if not max(_hypot(norm, *d.tolist()), _hypot(norm, *xi.tolist())) < _MAX_ENTRY * (1.0 - 1e-12):
+            return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+        terms = self._terms
+        if terms is not None and terms[1] == J.shape and terms[0] == entries:  # the last solve's J
+            P, sigma, factor = terms[2], terms[3], terms[4]
+        else:  # (as `_objective_terms`)
+            JtJ = J.T.dot(J)
+            P = JtJ + reg
+            sigma = (_LazySigma(JtJ, None, self._sigma_ref, shape=J.shape, entries=entries) if n <= m
+                     else _LazySigma(None, J.copy(), self._sigma_ref, shape=J.shape, entries=entries))
+            factor = None
+        self._terms = (entries, J.shape, P, sigma, factor)
+        w = None
+        if sigma_at_least(sigma, EXACT_DIRECTION_FLOOR * norm)[0]:  # (`exact_direction_floor`)
+            w = min_norm_direction(J, d, self._isw)
+        if w is None:
+            return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+        b = xi.dot(J)
+        if factor is None:
+            factor, c, info = _dposv(P, b)
+            if info == 0:
+                self._terms = (entries, J.shape, P, sigma, factor)
+        else:
+            c, info = _dpotrs(factor, b)
+        # ‖J c‖ ≤ ‖J‖_F‖c‖: the achieved twist and the task error are finite below 1e300
+        if info != 0 or not _hypot(*c.tolist()) * norm < 1e300:
+            return Solver.solve_direction_twist(self, J, d, xi, q=q, dt=dt)
+
+        info = self._info_unconstrained
+        if info is None or info["backend"] != self.backend:  # (one dict, only ever shown read-only)
+            info = self._info_unconstrained = {"status": "unconstrained", "iterations": 0,
+                                               "backend": self.backend, "lower": None, "upper": None,
+                                               "certified": "unconstrained"}
+
+        def make(xi_c: np.ndarray, qd: np.ndarray) -> SolveResult:
+            """The feedback's result (as `solve_validated`'s) for the command ``qd``."""
+            achieved = J.dot(qd)
+            r = _new(SolveResult)
+            _store(r, qd if qd is c else qd.copy(), achieved, xi_c - achieved, self.damping, sigma,
+                   self.method, "none", 1.0, shared_zeros(n, bool), (), False, MappingProxyType(info))
+            return r
+
+        return DirectionTwist(w, sigma, 0.0, c, J=J, make=make)
 
     def _solve_checked(self, J: np.ndarray, xi: np.ndarray, entries: list[float],
                        limits: Limits | Chain | None, qv: np.ndarray | None, qd_prev_v: np.ndarray | None,
