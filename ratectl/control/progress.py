@@ -207,7 +207,10 @@ class ProgressLimits:
             q: measured joint positions (n,).
             w: joint velocity per unit progress (n,).
             dt: the coming period [s].
-            sigma: σ_min(J(q)) if known (else computed when needed).
+            sigma: None when σ_min(J(q)) is at least ``watch_sigma``, else σ_min or an
+                upper bound of it below ``watch_sigma`` (`ProgressStage.sigma_for_watch`):
+                only compared with ``watch_sigma`` (the singularity bound computes σ_min
+                itself).
             w_prime: dw/ds (n,) if known (the curvature term), else None.
             q_lead: the position the commands have sent the arm to (n,) (the controller's
                 sum of commanded displacements, `Motion.commanded`), or None: an arm that lags
