@@ -109,6 +109,28 @@ class CascadeResult:
         for name in ("qps", "freedom", "box_active", "rows_active"):
             object.__setattr__(self, name, read_only(getattr(self, name), dtype=None))
 
+    def __getattr__(self, name: str) -> Any:
+        # ``lower`` and ``upper`` of a one-level step clear of the box, made on first access
+        # (`PriorityCascade._one_level_clear` keeps what they are made of, `_lazy_box`)
+        d = self.__dict__
+        if (name == "lower" or name == "upper") and "_box_of" in d:
+            d["lower"], d["upper"] = _lazy_box(*d["_box_of"])
+            return d[name]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+
+def _lazy_box(bc: _BoundCache, qdl: list[float] | None) -> tuple[np.ndarray, np.ndarray]:
+    """The box of a step with no joint near a position limit (`_box`'s arithmetic, read-only
+    arrays): ±vmax, narrowed to q̇_prev ± amax·dt with ``qdl`` the previous q̇ as floats."""
+    if qdl is None:
+        return bc.nvmax, bc.vmax
+    qd = np.array(qdl)
+    lo = np.maximum(bc.nvmax, qd - bc.amax_dt)
+    hi = np.minimum(bc.vmax, qd + bc.amax_dt)
+    lo.setflags(write=False)
+    hi.setflags(write=False)
+    return lo, hi
+
 
 def default_backend() -> str:
     """``"daqp"`` when the package is installed (the ``qp-fast`` extra), else ``"proxqp"``
@@ -198,6 +220,7 @@ class PriorityCascade:
         self._no_rows: dict[int, np.ndarray] = {}  # G (0, n) of a solve without extra rows
         self._projection: np.ndarray | None = None  # the last null-space projection within the box
         self._one_fixed: tuple | None = None  # (n, qps, freedom, box_active) of `_one_level`
+        self._fbox: tuple | None = None  # (bound cache, max vmax, max amax·dt) of `_one_level_clear`
 
     def __repr__(self) -> str:
         return f"PriorityCascade(backend={self.backend!r}, damping={self.damping!r})"
@@ -289,12 +312,17 @@ class PriorityCascade:
         level has weights, ``(A_all, b_all, ends)`` with ``ends`` each level's last row + 1:
         the residuals then come from one product. The answer is `solve`'s."""
         n = levels[0][0].shape[1]
+        one_level = extra_inequalities is None and len(levels) == 1 and n
+        if one_level and limits is not None:
+            one = self._one_level_clear(levels[0], n, limits, q, qd_prev, dt)
+            if one is not None:
+                return one
         lo, hi = self.box(n, limits, q, qd_prev, dt)
         bc = self._bcache
         for a in (lo, hi):  # the step's own box is frozen in place for the result (not copied)
             if bc is None or (a is not bc.vmax and a is not bc.nvmax):
                 a.setflags(write=False)
-        if extra_inequalities is None and len(levels) == 1 and n:
+        if one_level and limits is None:
             one = self._one_level(levels[0], lo, hi, n)
             if one is not None:
                 return one
@@ -315,6 +343,71 @@ class PriorityCascade:
                                   f"{self.backend!r}", status="failed") from None
         relaxed, feasible = self._relaxation(lo, hi, G, h)
         return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible, stacked=stacked)
+
+    def _one_level_clear(self, level, n: int, limits: Limits | Chain, q: np.ndarray | None,
+                         qd_prev: np.ndarray | None, dt: float | None) -> CascadeResult | None:
+        """`_one_level` under the limits for the common step, without the box's arrays: when
+        no joint is near a position limit (farther than it can travel at vmax in one period
+        and still stop: the bound cache's thresholds), the box is
+
+            lo_i = max(−vmax_i, q̇_prev,i − amax_i·dt),   hi_i = min(vmax_i, q̇_prev,i + amax_i·dt)
+
+        (±vmax without the acceleration side), and the minimiser x is clear of its faces by
+        more than the activity tolerance ``tol = _ACT_TOL·max(max|hi| + max|lo|, 1)`` when
+
+            vmax_i − |x_i| > 2T   and   amax_i·dt − |x_i − q̇_prev,i| > 2T   for every i,
+
+        with ``T = _ACT_TOL·max(2·min(max vmax, max|q̇_prev| + max amax·dt), 1)`` ≥ tol
+        (every |lo_i|, |hi_i| is at most min(vmax_i, |q̇_prev,i| + amax_i·dt); the factor 2
+        covers the rounding). Then x is the answer, as `_one_level` would find it; the
+        result's ``lower`` and ``upper`` are computed on first access (`_lazy_box`).
+        None otherwise (`solve_validated` decides, on the arrays)."""
+        bc = self._cache(n, limits, dt)
+        if q is not None and bc.has_pos:
+            if bc.inv_dt is None:
+                return None
+            ql = q.tolist()
+            if any(map(_gt, ql, bc.near_hi_l)) or any(map(_lt, ql, bc.near_lo_l)):
+                return None
+        fb = self._fbox
+        if fb is None or fb[0] is not bc:
+            adt0 = bc.amax_dt_l
+            fb = self._fbox = (bc, max(bc.vmax_l), max(adt0) if adt0 else 0.0)
+        A, b, sw = level
+        M = A if sw is None else sw[:, None] * A
+        H = M.T.dot(M)
+        lam2 = self.damping**2
+        if lam2:
+            H += self._lam2_eye(n)
+        x = _spd_solve(H, M.T.dot(b if sw is None else b * sw))
+        xl = x.tolist()
+        adt = bc.amax_dt_l
+        qdl = None
+        if qd_prev is not None and adt is not None and bc.has_acc:
+            qdl = qd_prev.tolist()
+            t2 = 2.0 * _ACT_TOL * max(2.0 * min(fb[1], max(map(abs, qdl)) + fb[2]), 1.0)
+            if not (min(map(_sub, bc.vmax_l, map(abs, xl))) > t2
+                    and min(map(_sub, adt, map(abs, map(_sub, xl, qdl)))) > t2):
+                return None
+        elif not min(map(_sub, bc.vmax_l, map(abs, xl))) > 2.0 * _ACT_TOL * max(2.0 * fb[1], 1.0):
+            return None
+        self._projection = x
+        d = A.dot(x)
+        d -= b
+        if sw is not None:
+            d *= sw
+        res = np.array([math.sqrt(d.dot(d))])
+        fixed = self._one_fixed
+        if fixed is None or fixed[0] != n:
+            fixed = self._one_fixed = (n, self._frozen([False], bool), self._frozen([n], int),
+                                       shared_zeros(n, dtype=bool))
+        x.setflags(write=False)
+        res.setflags(write=False)
+        r = object.__new__(CascadeResult)
+        object.__setattr__(r, "__dict__", {
+            "qd": x, "residuals": res, "qps": fixed[1], "freedom": fixed[2], "box_active": fixed[3],
+            "rows_active": _NO_ROWS, "relaxed": _NO_H, "backend": self.backend, "_box_of": (bc, qdl)})
+        return r
 
     def _one_level(self, level, lo, hi, n) -> CascadeResult | None:
         """One level and no extra rows, the common case of a single weighted least squares

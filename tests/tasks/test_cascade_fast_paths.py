@@ -8,28 +8,34 @@ from ratectl.solvers.priority import PriorityCascade
 
 
 class _Box:
-    def __init__(self, n, vmax, amax=np.inf):
-        self.lower = np.full(n, -np.inf)
-        self.upper = np.full(n, np.inf)
+    def __init__(self, n, vmax, amax=np.inf, lower=-np.inf, upper=np.inf):
+        self.lower = np.full(n, lower, dtype=float)
+        self.upper = np.full(n, upper, dtype=float)
         self.vmax = np.full(n, vmax)
         self.amax = np.full(n, amax)
 
 
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**31 - 1), st.integers(0, 6), st.booleans(), st.floats(0.05, 5.0),
-       st.floats(0.001, 1.0))
-def test_one_level_without_rows_is_the_general_cascade(seed, m, weighted, vmax, scale):
+       st.floats(0.001, 1.0), st.sampled_from(["none", "far", "near"]), st.booleans(),
+       st.sampled_from([100.0, np.inf]))
+def test_one_level_without_rows_is_the_general_cascade(seed, m, weighted, vmax, scale, positions, previous,
+                                                       amax):
     # one level and no extra rows takes a shortcut (one solve, no cascade bookkeeping);
     # an extra row that can never be active sends the same problem through the general
-    # cascade: the same q̇, residual and activity, whether the box holds the answer or not
+    # cascade: the same q̇, residual, activity and box, whether the box holds the answer or
+    # not, near a position limit or not, with or without the acceleration side
     rng = np.random.default_rng(seed)
     n = 7
     # a tool-like block of m rows over a posture-like identity (every direction seen)
     A = np.vstack([rng.normal(size=(m, n)), 0.1 * np.eye(n)])
     b = scale * rng.normal(size=m + n)
     w = rng.uniform(0.1, 10.0, size=m + n) if weighted else None
-    q, qd_prev = rng.normal(size=n), rng.normal(scale=0.05, size=n)
-    lim = _Box(n, vmax, amax=100.0)
+    q, qd_prev = rng.normal(size=n), rng.normal(scale=0.05, size=n) if previous else None
+    # position limits absent, far from q, or with some joints near one (within what vmax
+    # covers in a few periods): the box's position side then acts or may act
+    room = {"none": np.inf, "far": 10.0, "near": rng.uniform(0.0, 0.2, size=n)}[positions]
+    lim = _Box(n, vmax, amax=amax, lower=q - room, upper=q + room)
     level = (A, b) if w is None else (A, b, w)
     fast = PriorityCascade().solve([level], limits=lim, q=q, qd_prev=qd_prev, dt=0.01)
     general = PriorityCascade().solve([level], limits=lim, q=q, qd_prev=qd_prev, dt=0.01,
