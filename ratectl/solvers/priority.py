@@ -119,6 +119,21 @@ class CascadeResult:
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
 
+def _clear_thresholds(bc: _BoundCache) -> tuple[list[float] | None, ...]:
+    """The thresholds of `PriorityCascade._one_level_clear`, with ``T = _ACT_TOL·max(2·max
+    vmax, 1)``: ``(vmax − 2T, −(vmax − 2T), amax·dt − 2T, −(amax·dt − 2T))`` as lists of
+    floats (the last two None without an acceleration side); all None when T exceeds 1e-3
+    (velocity limits so large, or absent, that the test would refuse every answer)."""
+    t2 = 2.0 * _ACT_TOL * max(2.0 * max(bc.vmax_l), 1.0)
+    if not t2 <= 1e-3:
+        return None, None, None, None
+    hi = [v - t2 for v in bc.vmax_l]
+    if bc.amax_dt_l is None or not bc.has_acc:
+        return hi, [-v for v in hi], None, None
+    acc = [a - t2 for a in bc.amax_dt_l]
+    return hi, [-v for v in hi], acc, [-a for a in acc]
+
+
 def _lazy_box(bc: _BoundCache, qdl: list[float] | None) -> tuple[np.ndarray, np.ndarray]:
     """The box of a step with no joint near a position limit (`_box`'s arithmetic, read-only
     arrays): ±vmax, narrowed to q̇_prev ± amax·dt with ``qdl`` the previous q̇ as floats."""
@@ -220,7 +235,7 @@ class PriorityCascade:
         self._no_rows: dict[int, np.ndarray] = {}  # G (0, n) of a solve without extra rows
         self._projection: np.ndarray | None = None  # the last null-space projection within the box
         self._one_fixed: tuple | None = None  # (n, qps, freedom, box_active) of `_one_level`
-        self._fbox: tuple | None = None  # (bound cache, max vmax, max amax·dt) of `_one_level_clear`
+        self._fbox: tuple | None = None  # (bound cache, *`_clear_thresholds`) of `_one_level_clear`
 
     def __repr__(self) -> str:
         return f"PriorityCascade(backend={self.backend!r}, damping={self.damping!r})"
@@ -355,24 +370,25 @@ class PriorityCascade:
         (±vmax without the acceleration side), and the minimiser x is clear of its faces by
         more than the activity tolerance ``tol = _ACT_TOL·max(max|hi| + max|lo|, 1)`` when
 
-            vmax_i − |x_i| > 2T   and   amax_i·dt − |x_i − q̇_prev,i| > 2T   for every i,
+            |x_i| < vmax_i − 2T   and   |x_i − q̇_prev,i| < amax_i·dt − 2T   for every i,
 
-        with ``T = _ACT_TOL·max(2·min(max vmax, max|q̇_prev| + max amax·dt), 1)`` ≥ tol
-        (every |lo_i|, |hi_i| is at most min(vmax_i, |q̇_prev,i| + amax_i·dt); the factor 2
-        covers the rounding). Then x is the answer, as `_one_level` would find it; the
-        result's ``lower`` and ``upper`` are computed on first access (`_lazy_box`).
-        None otherwise (`solve_validated` decides, on the arrays)."""
+        with ``T = _ACT_TOL·max(2·max vmax, 1)`` ≥ tol (every |lo_i|, |hi_i| is at most
+        vmax_i; the factor 2 covers the rounding of the thresholds). Then x is the answer,
+        as `_one_level` would find it; the result's ``lower`` and ``upper`` are computed on
+        first access (`_lazy_box`). None otherwise, and for velocity limits so large that T
+        would refuse every answer (`solve_validated` decides, on the arrays)."""
         bc = self._cache(n, limits, dt)
+        fb = self._fbox
+        if fb is None or fb[0] is not bc:
+            fb = self._fbox = (bc, *_clear_thresholds(bc))
+        if fb[1] is None:
+            return None
         if q is not None and bc.has_pos:
             if bc.inv_dt is None:
                 return None
             ql = q.tolist()
             if any(map(_gt, ql, bc.near_hi_l)) or any(map(_lt, ql, bc.near_lo_l)):
                 return None
-        fb = self._fbox
-        if fb is None or fb[0] is not bc:
-            adt0 = bc.amax_dt_l
-            fb = self._fbox = (bc, max(bc.vmax_l), max(adt0) if adt0 else 0.0)
         A, b, sw = level
         M = A if sw is None else sw[:, None] * A
         H = M.T.dot(M)
@@ -381,16 +397,14 @@ class PriorityCascade:
             H += self._lam2_eye(n)
         x = _spd_solve(H, M.T.dot(b if sw is None else b * sw))
         xl = x.tolist()
-        adt = bc.amax_dt_l
-        qdl = None
-        if qd_prev is not None and adt is not None and bc.has_acc:
-            qdl = qd_prev.tolist()
-            t2 = 2.0 * _ACT_TOL * max(2.0 * min(fb[1], max(map(abs, qdl)) + fb[2]), 1.0)
-            if not (min(map(_sub, bc.vmax_l, map(abs, xl))) > t2
-                    and min(map(_sub, adt, map(abs, map(_sub, xl, qdl)))) > t2):
-                return None
-        elif not min(map(_sub, bc.vmax_l, map(abs, xl))) > 2.0 * _ACT_TOL * max(2.0 * fb[1], 1.0):
+        if not (all(map(_lt, xl, fb[1])) and all(map(_gt, xl, fb[2]))):
             return None
+        qdl = None
+        if qd_prev is not None and fb[3] is not None:
+            qdl = qd_prev.tolist()
+            d = list(map(_sub, xl, qdl))
+            if not (all(map(_lt, d, fb[3])) and all(map(_gt, d, fb[4]))):
+                return None
         self._projection = x
         d = A.dot(x)
         d -= b

@@ -46,3 +46,29 @@ def test_one_level_without_rows_is_the_general_cascade(seed, m, weighted, vmax, 
         assert getattr(fast, name).tolist() == getattr(general, name).tolist(), name
     assert fast.rows_active.shape == (0,) and fast.relaxed.shape == (0,)
     assert not fast.qd.flags.writeable and not fast.residuals.flags.writeable
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.booleans(), st.sampled_from([100.0, np.inf]))
+def test_an_answer_clear_of_the_box_reports_the_box_of_the_step(seed, previous, amax):
+    # small task velocities, well inside the box (the common control step): the answer,
+    # its residual and the box it reports are the general cascade's, and the box is the
+    # one `box` gives for the step
+    rng = np.random.default_rng(seed)
+    n = 7
+    A = np.vstack([rng.normal(size=(6, n)), 0.1 * np.eye(n)])
+    b = 0.01 * rng.normal(size=6 + n)
+    q = rng.normal(size=n)
+    qd_prev = rng.normal(scale=0.01, size=n) if previous else None
+    lim = _Box(n, 2.0, amax=amax, lower=q - 3.0, upper=q + 3.0)
+    cascade = PriorityCascade()
+    fast = cascade.solve([(A, b)], limits=lim, q=q, qd_prev=qd_prev, dt=0.01)
+    general = PriorityCascade().solve([(A, b)], limits=lim, q=q, qd_prev=qd_prev, dt=0.01,
+                                      extra_inequalities=(np.zeros((1, n)), np.ones(1)))
+    lo, hi = cascade.box(n, lim, q, qd_prev, 0.01)
+    assert fast.qd.tolist() == general.qd.tolist()
+    assert fast.residuals.tolist() == general.residuals.tolist()
+    assert not fast.box_active.any() and not fast.qps.any()
+    assert fast.lower.tolist() == general.lower.tolist() == lo.tolist()
+    assert fast.upper.tolist() == general.upper.tolist() == hi.tolist()
+    assert not fast.lower.flags.writeable and not fast.upper.flags.writeable
