@@ -199,12 +199,14 @@ class FrameTask(Task):
             raise InputError(f"{self!r} has no target: call set_target first", argument="target",
                              value=None)
         pre = self._frame_now
+        t = None
         if pre is not None:  # (computed with the other tasks' frames by the controller)
             T, J = pre
             self._frame_now = None
             a = T.tolist()
-        elif self.link is None and type(self).frame is FrameTask.frame:
-            a, J = chain.fk_rows_jacobian(q)  # (the tool: its rows as floats, no 4×4 array)
+        elif (self.link is None and type(self).frame is FrameTask.frame
+              and (t := chain._fk_jacobian_numbers(q)) is not None):
+            a = (t[0:4], t[4:8], t[8:12])  # (the tool: the kernel's numbers, no arrays)
         else:
             T, J = self.frame(chain, q)
             a = T.tolist()
@@ -229,14 +231,22 @@ class FrameTask(Task):
                 e[:] = (x, y, z)
                 b[:] = (x * g, y * g, z * g)
                 norm = th
-        if r.stop - r.start == 6:
-            Jr = J
+        if t is not None and A.flags.c_contiguous:
+            # the Jacobian's rows straight from the kernel's numbers into A (a view of it)
+            n = A.shape[1]
+            Af = A.reshape(-1)
+            Af[:] = t[16 + r.start * n:16 + r.stop * n]
+            if s != 1.0:
+                Af *= s
         else:
-            Jr = J[r]
-        if s == 1.0:  # (a weight of 1: the rows as they are, a copy)
-            A[...] = Jr
-        else:
-            np.multiply(Jr, s, out=A)
+            if t is not None:
+                n = A.shape[1]
+                J = np.array(t[16:]).reshape(6, n)
+            Jr = J if r.stop - r.start == 6 else J[r]
+            if s == 1.0:  # (a weight of 1: the rows as they are, a copy)
+                A[...] = Jr
+            else:
+                np.multiply(Jr, s, out=A)
         if self._has_twist:
             b += s * self._twist[r]
         return norm
