@@ -376,7 +376,7 @@ class ResolvedRateController:
                 return out
             res, qd, qdd, q_next, flags, reasons = out
         else:
-            qd = res.qd.copy()
+            qd = res.qd  # (read-only: the result's, shared with the command)
             qdd = (qd - self._m.qd) / dt
             q_next = q + qd * dt
         t0 = self._advance(q, q_next, qd, qdd, dt)
@@ -415,10 +415,12 @@ class ResolvedRateController:
                 f"gain={self.gain.tolist()}, smoothing={self.filter is not None})")
 
 
-def _refuse_with_tasks(**given: Any) -> None:
+def _refuse_with_tasks(target: Any = None, twist: Any = None, qd_ff: Any = None) -> None:
     """A controller with tasks takes q and dt only: ``target=``, ``twist=`` or ``qd_ff=``
     would bypass every task (a posture, collision rows), so they raise `InputError`."""
-    for name, value in given.items():
+    if target is None and twist is None and qd_ff is None:
+        return  # (every cycle)
+    for name, value in (("target", target), ("twist", twist), ("qd_ff", qd_ff)):
         if value is not None:
             raise InputError(f"this controller resolves its tasks (tasks=[...]) and takes q and dt only, "
                              f"got {name}=: set each task's target with task.set_target(...)",

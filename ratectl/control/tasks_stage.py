@@ -173,8 +173,7 @@ class TasksStage:
         """q̇ for this cycle (see the module docstring). ``q`` finite (n,) float64 and ``dt``
         > 0, as the controller's gate passes them."""
         chain = self.chain
-        key = [(t.priority, t.weight, t._row_count(chain, q)) if t.has_target else None
-               for t in self.tasks]
+        key = [t._layout_key(chain, q) for t in self.tasks]
         if key != self._key:
             self._layout(q, key)
         errs = [math.nan] * len(self.tasks)

@@ -83,6 +83,11 @@ class Task:
             return self.size
         return int(self.rows(chain, q).b.shape[0])
 
+    def _layout_key(self, chain: Chain, q: np.ndarray) -> tuple[int, float, int] | None:
+        """``(priority, weight, rows)``, or None without a target: what fixes the task's place
+        in the controller's level arrays (asked every cycle)."""
+        return (self.priority, self.weight, self._row_count(chain, q)) if self.has_target else None
+
     def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
               s: float) -> float:
         """Write the rows at ``q`` (finite, (n,) float64) scaled by ``s`` (√weight) into ``A``
