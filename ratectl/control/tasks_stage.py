@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..arrays import read_only, shared_zeros
-from ..errors import InputError, SolverError
+from ..errors import InputError
 from ..solvers.priority import CascadeResult, PriorityCascade
 from ..tasks.base import FrameTask, Task
 
@@ -69,6 +69,15 @@ class TasksResult:
     @property
     def task_error(self) -> np.ndarray:
         return self.residuals
+
+    def __getattr__(self, name: str) -> Any:
+        # ``task_errors`` of `TasksStage.solve`'s result: made from the list of the cycle's
+        # error norms on first access (most cycles never read it)
+        d = self.__dict__
+        if name == "task_errors" and "_errors" in d:
+            a = d["task_errors"] = read_only(np.array(d["_errors"]))
+            return a
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
 
 class TasksStage:
@@ -184,7 +193,6 @@ class TasksStage:
                 ft._frame_now = frames[i]
         for k, t, A_t, b_t, e_t, sw in self._fills:
             errs[k] = t._fill(chain, q, A_t, b_t, e_t, sw)
-        errors = np.array(errs)
         levels = self._levels
         damper = None
         rows: tuple[np.ndarray, np.ndarray] | None = None
@@ -197,9 +205,6 @@ class TasksStage:
             pairs, dist, closest = [], [], math.inf
         res = self.cascade.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
                                            extra_inequalities=rows, stacked=self._stacked)
-        if not math.isfinite(sum(res.qd.tolist())):
-            raise SolverError("the priority cascade gave a non-finite q̇ (non-finite task rows?)",
-                              status="failed")
         active_box = res.box_active
         if rows is None and (limits is None or active_box is self._no_joint
                              or True not in active_box.tolist()):
@@ -209,9 +214,8 @@ class TasksStage:
         else:
             flags, reasons, active = self._held_back(res, rows, pairs, dist, q=q, qd_prev=qd_prev, dt=dt,
                                                      limits=limits)
-        errors.setflags(write=False)
         return _owned_result(TasksResult, {
-            "qd": res.qd, "priorities": self._priorities, "residuals": res.residuals, "task_errors": errors,
+            "qd": res.qd, "priorities": self._priorities, "residuals": res.residuals, "_errors": errs,
             "flags": flags, "reasons": reasons, "limits_active": active,
             "collision_distance": float(closest), "cascade": res, "damper_rows": damper})
 

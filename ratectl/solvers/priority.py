@@ -325,7 +325,8 @@ class PriorityCascade:
         ``(G (k, n), h (k,))`` float64 with k ≥ 1, or None. ``stacked``: when every level's
         A and b are consecutive row blocks of one (M, n) array and one (M,) vector, and no
         level has weights, ``(A_all, b_all, ends)`` with ``ends`` each level's last row + 1:
-        the residuals then come from one product. The answer is `solve`'s."""
+        the residuals then come from one product. The answer is `solve`'s; a non-finite q̇
+        raises SolverError."""
         n = levels[0][0].shape[1]
         one_level = extra_inequalities is None and len(levels) == 1 and n
         if one_level and limits is not None:
@@ -350,14 +351,15 @@ class PriorityCascade:
         else:
             G, h = extra_inequalities
         try:
-            return self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]) if h.size else _NO_H, n,
-                                 stacked=stacked)
+            return _finite(self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]) if h.size else _NO_H, n,
+                                         stacked=stacked))
         except _Infeasible:
             if not h.size:
                 raise SolverError(f"the priority cascade's first level failed on backend "
                                   f"{self.backend!r}", status="failed") from None
         relaxed, feasible = self._relaxation(lo, hi, G, h)
-        return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible, stacked=stacked)
+        return _finite(self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible,
+                                     stacked=stacked))
 
     def _one_level_clear(self, level, n: int, limits: Limits | Chain, q: np.ndarray | None,
                          qd_prev: np.ndarray | None, dt: float | None) -> CascadeResult | None:
@@ -779,6 +781,15 @@ class PriorityCascade:
         except Exception:  # a backend's own exception types: reported as a failed level
             return None
         return None if x is None else np.asarray(x, dtype=float)
+
+
+def _finite(res: CascadeResult) -> CascadeResult:
+    """``res`` when its q̇ is finite, else SolverError (finite levels whose arithmetic
+    overflowed). The answers of `PriorityCascade._one_level` and `_one_level_clear` are
+    finite by their test against the box (NaN passes no comparison)."""
+    if not math.isfinite(sum(res.qd.tolist())):
+        raise SolverError("the priority cascade gave a non-finite q̇ (task rows too large?)", status="failed")
+    return res
 
 
 def _residuals(levels, x: np.ndarray) -> np.ndarray:
