@@ -116,6 +116,10 @@ class TasksStage:
         self.collision = collision
         self.cascade = cascade if cascade is not None else PriorityCascade()
         self._key: list | None = None  # (priority, weight, rows) of each task with a target
+        # the `Task._layout_epoch` of that key: asked again only when the epoch moves, when
+        # every task is one of the package's (`Task._static_layout`), else every cycle
+        self._static = all(t._static_layout for t in tasks)
+        self._epoch = -1
         # per task with a target: (index, task, its slices of A, b and the errors, √weight)
         self._fills: list[tuple[int, Task, np.ndarray, np.ndarray, np.ndarray, float]] = []
         self._levels: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
@@ -182,9 +186,13 @@ class TasksStage:
         """q̇ for this cycle (see the module docstring). ``q`` finite (n,) float64 and ``dt``
         > 0, as the controller's gate passes them."""
         chain = self.chain
-        key = [t._layout_key(chain, q) for t in self.tasks]
-        if key != self._key:
-            self._layout(q, key)
+        epoch = Task._layout_epoch
+        if epoch != self._epoch:  # (a task may have changed its place in the levels)
+            key = [t._layout_key(chain, q) for t in self.tasks]
+            if key != self._key:
+                self._layout(q, key)
+            if self._static:
+                self._epoch = epoch
         errs = [math.nan] * len(self.tasks)
         framed = self._framed
         if framed is not None:

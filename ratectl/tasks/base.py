@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -55,14 +55,45 @@ class Task:
 
     #: rows per task (None: depends on the chain)
     size: int | None = None
+    #: advanced whenever a task changes its place in a controller's level arrays: a priority
+    #: or a weight set, a first target, a posture's new reference (`_layout_changed`)
+    _layout_epoch = 0
+    #: whether that place (`_layout_key`) changes only with `_layout_epoch`: the tasks of
+    #: this package; a subclass defined elsewhere may count its rows anew any cycle
+    _static_layout = True
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if not cls.__module__.startswith("ratectl."):
+            cls._static_layout = False
 
     def __init__(self, *, priority: int = 0, weight: float = 1.0, gain: float = 10.0) -> None:
-        if isinstance(priority, bool) or not isinstance(priority, int | np.integer) or priority < 0:
-            raise InputError(f"priority must be an integer ≥ 0 (0 is the highest), got {priority!r}",
-                             argument="priority", value=priority)
-        self.priority = int(priority)
-        self.weight = positive_number("weight", weight)
+        self.priority = priority
+        self.weight = weight
         self.gain = positive_number("gain", gain, allow_zero=True, unit="[1/s]")
+
+    @property
+    def priority(self) -> int:
+        """0 is the highest (an integer ≥ 0)."""
+        return self._priority
+
+    @priority.setter
+    def priority(self, value: int) -> None:
+        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+            raise InputError(f"priority must be an integer ≥ 0 (0 is the highest), got {value!r}",
+                             argument="priority", value=value)
+        self._priority = int(value)
+        _layout_changed()
+
+    @property
+    def weight(self) -> float:
+        """The task's weight within its level (> 0)."""
+        return self._weight
+
+    @weight.setter
+    def weight(self, value: float) -> None:
+        self._weight = positive_number("weight", value)
+        _layout_changed()
 
     @property
     def has_target(self) -> bool:
@@ -114,6 +145,11 @@ class Task:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(priority={self.priority}, weight={self.weight:g}, gain={self.gain:g})"
+
+
+def _layout_changed() -> None:
+    """A task changed its place in the level arrays (see `Task._layout_epoch`)."""
+    Task._layout_epoch += 1
 
 
 def check_pose(T: ArrayLike, name: str = "target") -> np.ndarray:
@@ -183,6 +219,8 @@ class FrameTask(Task):
         return None if self._target is None else self._target.copy()
 
     def _set(self, T: np.ndarray, twist: np.ndarray | None) -> None:
+        if self._target is None:  # (a first target: the task joins its level)
+            _layout_changed()
         self._target = T
         self._target_rows = T.tolist()
         self._twist = np.zeros(6)

@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..model.limits import braking_speed_scalar
-from .base import Task, TaskRows, check_vector
+from .base import Task, TaskRows, _layout_changed, check_vector
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -65,6 +65,7 @@ class Posture(Task):
     def set_target(self, q_ref: ArrayLike) -> None:
         """Track the configuration ``q_ref`` (n,) [rad or m]."""
         self._q_ref = check_vector(q_ref, int(np.size(q_ref)), "q_ref", "[rad or m]")
+        _layout_changed()  # (a first target, or another number of joints: checked again)
 
     def _checked(self, chain: Chain) -> np.ndarray:
         """q_ref, checked against the chain (its size, the joint indices)."""
