@@ -832,9 +832,12 @@ _STARTS: dict[tuple[int, ...], Any] = {}
 
 
 def _spd_solve(H: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """H⁻¹g for a symmetric positive (semi)definite H: Cholesky (LAPACK ``dposv``), the
-    least-squares answer where H is singular (λ = 0 and rank-deficient rows)."""
-    c, z, info = _dposv(H, g)
+    """H⁻¹g for a symmetric positive (semi)definite H (exactly symmetric: MᵀM + λ²I):
+    Cholesky (LAPACK ``dposv``), the least-squares answer where H is singular (λ = 0 and
+    rank-deficient rows)."""
+    # (H is exactly symmetric — numpy forms MᵀM with one symmetric rank-k update — so its
+    # transpose, a Fortran-ordered view, holds the same numbers: LAPACK takes it as it is)
+    c, z, info = _dposv(H.T, g)
     if info == 0:
         return z
     return np.linalg.lstsq(H, g, rcond=None)[0]
