@@ -5,6 +5,7 @@ a link's frame."""
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -147,6 +148,26 @@ class Task:
         return f"{type(self).__name__}(priority={self.priority}, weight={self.weight:g}, gain={self.gain:g})"
 
 
+_STRUCTS: dict[int, Any] = {}
+
+
+def float_writers(*arrays: np.ndarray) -> tuple[tuple[Any, memoryview], ...] | None:
+    """For each array (float64, C-contiguous, writeable), ``(pack_into, memory)``:
+    ``pack_into(memory, 0, *values)`` writes ``a.size`` Python floats into the array in
+    order (`struct`, native doubles) — cheaper, for a few numbers every cycle, than numpy's
+    conversion of a sequence. None when an array is not such an array (the caller then
+    assigns)."""
+    out = []
+    for a in arrays:
+        if a.dtype != np.float64 or not a.flags.c_contiguous or not a.flags.writeable:
+            return None
+        st = _STRUCTS.get(a.size)
+        if st is None:
+            st = _STRUCTS[a.size] = struct.Struct(f"={a.size}d")
+        out.append((st.pack_into, memoryview(a).cast("B")))  # type: ignore[arg-type]
+    return tuple(out)
+
+
 def _layout_changed() -> None:
     """A task changed its place in the level arrays (see `Task._layout_epoch`)."""
     Task._layout_epoch += 1
@@ -208,6 +229,7 @@ class FrameTask(Task):
         # (pose, Jacobian) of the frame at this cycle's q, set just before `_fill` by a caller
         # that computes several tasks' frames in one pass (the controller's tasks stage)
         self._frame_now: tuple[np.ndarray, np.ndarray] | None = None
+        self._writers: tuple | None = None  # (A, b, e, their `float_writers`) of the last `_fill`
 
     @property
     def has_target(self) -> bool:
@@ -260,27 +282,36 @@ class FrameTask(Task):
         r = self._rows
         g = self.gain * s
         if r.stop == 3:  # the position alone (no rotation error to compute)
-            e[:] = (ex, ey, ez)
-            b[:] = (ex * g, ey * g, ez * g)
+            ev: tuple[float, ...] = (ex, ey, ez)
+            bv: tuple[float, ...] = (ex * g, ey * g, ez * g)
             norm = math.sqrt(ex * ex + ey * ey + ez * ez)
         else:
             x, y, z, th = rotation_error_rows(d, a)
             if r.start == 0:  # the full pose
-                e[:] = (ex, ey, ez, x, y, z)
-                b[:] = (ex * g, ey * g, ez * g, x * g, y * g, z * g)
+                ev = (ex, ey, ez, x, y, z)
+                bv = (ex * g, ey * g, ez * g, x * g, y * g, z * g)
                 ep = math.sqrt(ex * ex + ey * ey + ez * ez)
                 norm = math.sqrt(ep * ep + th * th)
             else:  # the orientation alone
-                e[:] = (x, y, z)
-                b[:] = (x * g, y * g, z * g)
+                ev = (x, y, z)
+                bv = (x * g, y * g, z * g)
                 norm = th
-        if t is not None and A.flags.c_contiguous:
-            # the Jacobian's rows straight from the kernel's numbers into A (a view of it)
+        w = self._writers
+        if w is None or w[0] is not A or w[1] is not b or w[2] is not e:
+            w = self._writers = (A, b, e, float_writers(A, b, e))
+        wr = w[3]
+        if wr is not None:  # (the numbers straight into the arrays' memory)
+            wr[1][0](wr[1][1], 0, *bv)
+            wr[2][0](wr[2][1], 0, *ev)
+        else:
+            b[:] = bv
+            e[:] = ev
+        if t is not None and wr is not None:
+            # the Jacobian's rows straight from the kernel's numbers into A's memory
             n = A.shape[1]
-            Af = A.reshape(-1)
-            Af[:] = t[16 + r.start * n:16 + r.stop * n]
+            wr[0][0](wr[0][1], 0, *t[16 + r.start * n:16 + r.stop * n])
             if s != 1.0:
-                Af *= s
+                A *= s
         else:
             if t is not None:
                 n = A.shape[1]
