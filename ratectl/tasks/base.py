@@ -151,7 +151,7 @@ class Task:
 _STRUCTS: dict[int, Any] = {}
 
 
-def float_writers(*arrays: np.ndarray) -> tuple[tuple[Any, memoryview], ...] | None:
+def _float_writers(*arrays: np.ndarray) -> tuple[tuple[Any, memoryview], ...] | None:
     """For each array (float64, C-contiguous, writeable), ``(pack_into, memory)``:
     ``pack_into(memory, 0, *values)`` writes ``a.size`` Python floats into the array in
     order (`struct`, native doubles) — cheaper, for a few numbers every cycle, than numpy's
@@ -229,7 +229,7 @@ class FrameTask(Task):
         # (pose, Jacobian) of the frame at this cycle's q, set just before `_fill` by a caller
         # that computes several tasks' frames in one pass (the controller's tasks stage)
         self._frame_now: tuple[np.ndarray, np.ndarray] | None = None
-        self._writers: tuple | None = None  # (A, b, e, their `float_writers`) of the last `_fill`
+        self._writers: tuple | None = None  # (A, b, e, their `_float_writers`) of the last `_fill`
 
     @property
     def has_target(self) -> bool:
@@ -298,7 +298,7 @@ class FrameTask(Task):
                 norm = th
         w = self._writers
         if w is None or w[0] is not A or w[1] is not b or w[2] is not e:
-            w = self._writers = (A, b, e, float_writers(A, b, e))
+            w = self._writers = (A, b, e, _float_writers(A, b, e))
         wr = w[3]
         if wr is not None:  # (the numbers straight into the arrays' memory)
             wr[1][0](wr[1][1], 0, *bv)
