@@ -235,7 +235,7 @@ class PriorityCascade:
         self._no_rows: dict[int, np.ndarray] = {}  # G (0, n) of a solve without extra rows
         self._projection: np.ndarray | None = None  # the last null-space projection within the box
         self._one_fixed: tuple | None = None  # (n, qps, freedom, box_active) of `_one_level`
-        self._fbox: tuple | None = None  # (bound cache, *`_clear_thresholds`) of `_one_level_clear`
+        self._fbox: tuple | None = None  # (bound cache, *`_clear_thresholds`, ...) of `_one_level_clear`
 
     def __repr__(self) -> str:
         return f"PriorityCascade(backend={self.backend!r}, damping={self.damping!r})"
@@ -379,10 +379,16 @@ class PriorityCascade:
         as `_one_level` would find it; the result's ``lower`` and ``upper`` are computed on
         first access (`_lazy_box`). None otherwise, and for velocity limits so large that T
         would refuse every answer (`solve_validated` decides, on the arrays)."""
-        bc = self._cache(n, limits, dt)
+        bc = self._bcache
+        if bc is None or bc.src is not limits or bc.dt != dt or bc.n != n:
+            bc = self._cache(n, limits, dt)
         fb = self._fbox
         if fb is None or fb[0] is not bc:
-            fb = self._fbox = (bc, *_clear_thresholds(bc))
+            # per bound cache: the thresholds, λ²I (None for λ = 0) and the result's constant
+            # arrays (qps, freedom, box_active)
+            fb = self._fbox = (bc, *_clear_thresholds(bc), self._lam2_eye(n) if self.damping**2 else None,
+                               self._frozen([False], bool), self._frozen([n], int),
+                               shared_zeros(n, dtype=bool))
         if fb[1] is None:
             return None
         if q is not None and bc.has_pos:
@@ -394,9 +400,8 @@ class PriorityCascade:
         A, b, sw = level
         M = A if sw is None else sw[:, None] * A
         H = M.T.dot(M)
-        lam2 = self.damping**2
-        if lam2:
-            H += self._lam2_eye(n)
+        if fb[5] is not None:
+            H += fb[5]
         x = _spd_solve(H, M.T.dot(b if sw is None else b * sw))
         xl = x.tolist()
         if not (all(map(_lt, xl, fb[1])) and all(map(_gt, xl, fb[2]))):
@@ -413,15 +418,11 @@ class PriorityCascade:
         if sw is not None:
             d *= sw
         res = np.array([math.sqrt(d.dot(d))])
-        fixed = self._one_fixed
-        if fixed is None or fixed[0] != n:
-            fixed = self._one_fixed = (n, self._frozen([False], bool), self._frozen([n], int),
-                                       shared_zeros(n, dtype=bool))
         x.setflags(write=False)
         res.setflags(write=False)
         r = object.__new__(CascadeResult)
         object.__setattr__(r, "__dict__", {
-            "qd": x, "residuals": res, "qps": fixed[1], "freedom": fixed[2], "box_active": fixed[3],
+            "qd": x, "residuals": res, "qps": fb[6], "freedom": fb[7], "box_active": fb[8],
             "rows_active": _NO_ROWS, "relaxed": _NO_H, "backend": self.backend, "_box_of": (bc, qdl)})
         return r
 
