@@ -27,6 +27,8 @@ if TYPE_CHECKING:
 
 __all__ = ["TasksStage", "TasksResult"]
 
+_NONE: list = []  # (no collision pairs: never written)
+
 @dataclass(frozen=True, kw_only=True)
 class TasksResult:
     """What one `TasksStage.solve` gives (``Command.solve`` of a tasks cycle).
@@ -210,7 +212,7 @@ class TasksStage:
             if h.size:
                 rows = (G, h)
         else:
-            pairs, dist, closest = [], [], math.inf
+            pairs, dist, closest = _NONE, _NONE, math.inf
         res = self.cascade.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
                                            extra_inequalities=rows, stacked=self._stacked)
         active_box = res.box_active

@@ -118,7 +118,7 @@ class Posture(Task):
     def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
               s: float) -> float:
         """``A = I`` (the rows of ``joints``), ``e = q_ref − q``, ``b = K e`` (scaled by s)."""
-        q_ref = self._q_ref  # (checked against the chain by _row_count, asked first every cycle)
+        q_ref = self._q_ref  # (checked against the chain by _row_count, asked after every set_target)
         if q_ref is None:
             q_ref = self._checked(chain)  # raises
         j = self._joints
@@ -136,7 +136,7 @@ class Posture(Task):
                 self._A = (key, rows if j is None else rows[j])
             A[...] = self._A[1]
             self._rows_in = (A, s, n)
-        return math.sqrt(float(e.dot(e)))
+        return math.sqrt(e.dot(e))
 
 
 def _linear_up_to(K: float, amax: float, jmax: float) -> float:
