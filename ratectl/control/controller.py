@@ -377,8 +377,9 @@ class ResolvedRateController:
             res, qd, qdd, q_next, flags, reasons = out
         else:
             qd = res.qd  # (read-only: the result's, shared with the command)
-            qdd = (qd - self._m.qd) / dt
-            q_next = q + qd * dt
+            period = self._tasks.period(dt)  # (dt as an array: cheaper arithmetic, the same numbers)
+            qdd = (qd - self._m.qd) / period
+            q_next = q + qd * period
         t0 = self._advance(q, q_next, qd, qdd, dt)
         assert self._q_last is not None
         return tasks_command(self._tasks, self.chain, res, q_next, qd, qdd, t0, dt, self._q_last,

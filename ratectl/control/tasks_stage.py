@@ -130,6 +130,7 @@ class TasksStage:
         self._stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None = None
         self._framed: tuple[list[FrameTask], tuple[str | None, ...], list[int]] | None = None
         self._no_joint = shared_zeros(chain.dof, dtype=bool)  # (the cascade's "no joint on a face")
+        self._period: tuple[float, np.ndarray] | None = None  # (dt, `period`)
 
     def _layout(self, q: np.ndarray, key: list) -> None:
         """Each level's arrays (the weighted rows √w·A (m, n) and √w·b (m,), the errors (m,))
@@ -177,6 +178,17 @@ class TasksStage:
         links = tuple(dict.fromkeys(t.link for t in framed))
         self._framed = (framed, links, [links.index(t.link) for t in framed]) if len(links) > 1 else None
         self._key = key
+
+    def period(self, dt: float) -> np.ndarray:
+        """``dt`` [s] as a read-only (n,) array, kept while the period stays the same: numpy
+        arithmetic of a joint vector with it gives the numbers of that with the float, at a
+        third of the cost of the float's conversion every cycle."""
+        p = self._period
+        if p is None or p[0] != dt:
+            a = np.full(self.chain.dof, dt)
+            a.setflags(write=False)
+            p = self._period = (dt, a)
+        return p[1]
 
     def tool_error(self) -> np.ndarray | None:
         """The tool `Pose` task's error [p_d − p; log(R_d Rᵀ)] (6,) of the last solve (a

@@ -53,6 +53,7 @@ class Posture(Task):
         self._estar: tuple | None = None  # (chain, gain, e* per joint, amax, jmax lists)
         self._rows_in: tuple | None = None  # (A, s, n): the array whose rows were last written
         self._valid: tuple | None = None  # (q_ref, chain, rows): the last q_ref checked on a chain
+        self._gain_row: tuple[float, np.ndarray] | None = None  # (K·s, K·s per row) of `_brake`
 
     @property
     def has_target(self) -> bool:
@@ -94,7 +95,10 @@ class Posture(Task):
                                al, jl)
         estar = c[2]
         el = e.tolist()
-        np.multiply(e, K * s, out=b)
+        g = self._gain_row
+        if g is None or g[0] != K * s or g[1].shape != e.shape:
+            g = self._gain_row = (K * s, np.full(e.shape, K * s))
+        np.multiply(e, g[1], b)  # (K·s as an array: the numbers of the float's product, cheaper)
         if not any(map(_gt, map(abs, el), estar)):
             return  # every joint within its linear range (the common case)
         al, jl = c[3], c[4]

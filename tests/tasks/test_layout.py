@@ -90,3 +90,26 @@ def test_a_priority_or_weight_out_of_range_is_refused_when_set(name, value):
     with pytest.raises(rc.errors.InputError, match=name):
         setattr(task, name, value)
     assert (task.priority, task.weight) == (0, 1.0)
+
+
+def test_the_period_row_is_dt_for_every_joint_and_follows_dt():
+    ch = rc.robots.panda()
+    stage = TasksStage(ch, [rc.tasks.Posture(np.zeros(7))])
+    p = stage.period(1e-3)
+    assert p.tolist() == [1e-3] * 7 and not p.flags.writeable
+    assert stage.period(1e-3) is p
+    assert stage.period(2e-3).tolist() == [2e-3] * 7
+
+
+def test_a_tasks_cycle_commands_q_plus_qd_dt_and_its_acceleration():
+    ch = rc.robots.panda()
+    q = 0.5 * (ch.qlim[:, 0] + ch.qlim[:, 1])
+    tool, post = _tasks(ch, q)
+    ctrl = rc.ResolvedRateController(ch, tasks=[tool, post])
+    prev = np.zeros(7)
+    for dt in (1e-3, 1e-3, 4e-3):
+        cmd = ctrl.step(q, dt=dt)
+        assert cmd.q_next.tolist() == [a + v * dt for a, v in zip(q.tolist(), cmd.qd.tolist(), strict=True)]
+        assert cmd.qdd.tolist() == [(v - p) / dt for v, p in zip(cmd.qd.tolist(), prev.tolist(), strict=True)]
+        prev = cmd.qd
+        q = cmd.q_next
