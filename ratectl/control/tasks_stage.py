@@ -73,12 +73,17 @@ class TasksResult:
         return self.residuals
 
     def __getattr__(self, name: str) -> Any:
-        # ``task_errors`` of `TasksStage.solve`'s result: made from the list of the cycle's
-        # error norms on first access (most cycles never read it)
+        # ``task_errors`` of `TasksStage.solve`'s result, made from the list of the cycle's
+        # error norms, and the ``cascade`` of a one-level cycle clear of the box: made on
+        # first access (most cycles never read them)
         d = self.__dict__
         if name == "task_errors" and "_errors" in d:
             a = d["task_errors"] = read_only(np.array(d["_errors"]))
             return a
+        if name == "cascade" and "_cascade_of" in d:  # (a one-level cycle clear of the box)
+            cascade, clear = d["_cascade_of"]
+            r = d["cascade"] = cascade.clear_result(clear)
+            return r
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
 
@@ -225,8 +230,18 @@ class TasksStage:
                 rows = (G, h)
         else:
             pairs, dist, closest = _NONE, _NONE, math.inf
-        res = self.cascade.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
-                                           extra_inequalities=rows, stacked=self._stacked)
+        cascade = self.cascade
+        n = chain.dof
+        if rows is None and len(levels) == 1 and limits is not None and n:
+            # one level clear of the box, the common cycle (`solve_validated`'s first try): its
+            # CascadeResult made when read
+            clear = cascade._one_level_clear(levels[0], n, limits, q, qd_prev, dt)
+            if clear is not None:
+                return _owned_result(TasksResult, {
+                    "qd": clear[0], "priorities": self._priorities, "residuals": clear[1], "_errors": errs,
+                    "flags": (), "reasons": (), "limits_active": (), "collision_distance": math.inf,
+                    "_cascade_of": (cascade, clear), "damper_rows": None})
+        res = cascade._solve_boxed(levels, n, limits, q, qd_prev, dt, rows, self._stacked)
         active_box = res.box_active
         if rows is None and (limits is None or active_box is self._no_joint
                              or True not in active_box.tolist()):

@@ -328,17 +328,24 @@ class PriorityCascade:
         the residuals then come from one product. The answer is `solve`'s; a non-finite q̇
         raises SolverError."""
         n = levels[0][0].shape[1]
-        one_level = extra_inequalities is None and len(levels) == 1 and n
-        if one_level and limits is not None:
-            one = self._one_level_clear(levels[0], n, limits, q, qd_prev, dt)
-            if one is not None:
-                return one
+        if extra_inequalities is None and len(levels) == 1 and n and limits is not None:
+            clear = self._one_level_clear(levels[0], n, limits, q, qd_prev, dt)
+            if clear is not None:
+                return self.clear_result(clear)
+        return self._solve_boxed(levels, n, limits, q, qd_prev, dt, extra_inequalities, stacked)
+
+    def _solve_boxed(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]], n: int,
+                     limits: Limits | Chain | None, q: np.ndarray | None, qd_prev: np.ndarray | None,
+                     dt: float | None, extra_inequalities: tuple[np.ndarray, np.ndarray] | None,
+                     stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None) -> CascadeResult:
+        """`solve_validated` on the box's arrays: all of it but its first try,
+        `_one_level_clear` (one level under limits without extra rows)."""
         lo, hi = self.box(n, limits, q, qd_prev, dt)
         bc = self._bcache
         for a in (lo, hi):  # the step's own box is frozen in place for the result (not copied)
             if bc is None or (a is not bc.vmax and a is not bc.nvmax):
                 a.setflags(write=False)
-        if one_level and limits is None:
+        if extra_inequalities is None and len(levels) == 1 and n and limits is None:
             one = self._one_level(levels[0], lo, hi, n)
             if one is not None:
                 return one
@@ -362,7 +369,7 @@ class PriorityCascade:
                                      stacked=stacked))
 
     def _one_level_clear(self, level, n: int, limits: Limits | Chain, q: np.ndarray | None,
-                         qd_prev: np.ndarray | None, dt: float | None) -> CascadeResult | None:
+                         qd_prev: np.ndarray | None, dt: float | None) -> tuple | None:
         """`_one_level` under the limits for the common step, without the box's arrays: when
         no joint is near a position limit (farther than it can travel at vmax in one period
         and still stop: the bound cache's thresholds), the box is
@@ -376,9 +383,12 @@ class PriorityCascade:
 
         with ``T = _ACT_TOL·max(2·max vmax, 1)`` ≥ tol (every |lo_i|, |hi_i| is at most
         vmax_i; the factor 2 covers the rounding of the thresholds). Then x is the answer,
-        as `_one_level` would find it; the result's ``lower`` and ``upper`` are computed on
-        first access (`_lazy_box`). None otherwise, and for velocity limits so large that T
-        would refuse every answer (`solve_validated` decides, on the arrays)."""
+        as `_one_level` would find it: returned as ``(q̇, residuals, q̇_prev as floats or None,
+        the thresholds' tuple)``, the arrays fresh and read-only, for `clear_result` (which
+        makes its `CascadeResult`, with ``lower`` and ``upper`` computed on first access,
+        `_lazy_box`).
+        None otherwise, and for velocity limits so large that T would refuse every answer
+        (`solve_validated` decides, on the arrays)."""
         bc = self._bcache
         if bc is None or bc.src is not limits or bc.dt != dt or bc.n != n:
             bc = self._cache(n, limits, dt)
@@ -420,10 +430,16 @@ class PriorityCascade:
         res = np.array([math.sqrt(d.dot(d))])
         x.setflags(write=False)
         res.setflags(write=False)
+        return x, res, qdl, fb
+
+    def clear_result(self, clear: tuple) -> CascadeResult:
+        """The `CascadeResult` of a `_one_level_clear` answer ``clear``: no QP, every
+        direction free, no joint on a face of the box, the box made on first access."""
+        x, res, qdl, fb = clear
         r = object.__new__(CascadeResult)
         object.__setattr__(r, "__dict__", {
             "qd": x, "residuals": res, "qps": fb[6], "freedom": fb[7], "box_active": fb[8],
-            "rows_active": _NO_ROWS, "relaxed": _NO_H, "backend": self.backend, "_box_of": (bc, qdl)})
+            "rows_active": _NO_ROWS, "relaxed": _NO_H, "backend": self.backend, "_box_of": (fb[0], qdl)})
         return r
 
     def _one_level(self, level, lo, hi, n) -> CascadeResult | None:

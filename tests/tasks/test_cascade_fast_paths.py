@@ -72,3 +72,31 @@ def test_an_answer_clear_of_the_box_reports_the_box_of_the_step(seed, previous, 
     assert fast.lower.tolist() == general.lower.tolist() == lo.tolist()
     assert fast.upper.tolist() == general.upper.tolist() == hi.tolist()
     assert not fast.lower.flags.writeable and not fast.upper.flags.writeable
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.booleans())
+def test_a_one_level_tasks_cycle_reports_the_cascades_own_result(seed, previous):
+    # the tasks stage solves a one-level cycle clear of the box without building the
+    # cascade's result; read, it is the result `solve_validated` gives for the same rows
+    import ratectl as rc
+    from ratectl.control.tasks_stage import TasksStage
+
+    ch = rc.robots.panda()
+    rng = np.random.default_rng(seed)
+    q = 0.5 * (ch.qlim[:, 0] + ch.qlim[:, 1]) + rng.uniform(-0.3, 0.3, size=7)  # (far from the limits)
+    T = ch.fk(q)
+    T[:3, 3] += rng.uniform(-1e-4, 1e-4, size=3)  # (a step of the servo: well inside amax·dt)
+    stage = TasksStage(ch, [rc.tasks.Pose(target=T), rc.tasks.Posture(q + 0.001, weight=0.01, gain=1.0)])
+    qd_prev = rng.normal(scale=0.001, size=7) if previous else None
+    res = stage.solve(q, dt=1e-3, qd_prev=qd_prev, limits=ch)
+    A, b, _ = stage._levels[0]
+    want = PriorityCascade().solve_validated([(A.copy(), b.copy(), None)], limits=ch, q=q, qd_prev=qd_prev,
+                                             dt=1e-3)
+    got = res.cascade
+    assert got is res.cascade
+    assert got.qd is res.qd and got.residuals is res.residuals
+    for name in ("qd", "residuals", "qps", "freedom", "box_active", "lower", "upper", "rows_active",
+                 "relaxed"):
+        assert getattr(got, name).tolist() == getattr(want, name).tolist(), name
+    assert got.backend == want.backend
