@@ -82,7 +82,7 @@ class TasksResult:
             return a
         if name == "cascade" and "_cascade_of" in d:  # (a one-level cycle clear of the box)
             cascade, clear = d["_cascade_of"]
-            r = d["cascade"] = cascade.clear_result(clear)
+            r = d["cascade"] = cascade._clear_result(clear)
             return r
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 

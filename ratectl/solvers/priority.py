@@ -331,7 +331,7 @@ class PriorityCascade:
         if extra_inequalities is None and len(levels) == 1 and n and limits is not None:
             clear = self._one_level_clear(levels[0], n, limits, q, qd_prev, dt)
             if clear is not None:
-                return self.clear_result(clear)
+                return self._clear_result(clear)
         return self._solve_boxed(levels, n, limits, q, qd_prev, dt, extra_inequalities, stacked)
 
     def _solve_boxed(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]], n: int,
@@ -384,7 +384,7 @@ class PriorityCascade:
         with ``T = _ACT_TOL·max(2·max vmax, 1)`` ≥ tol (every |lo_i|, |hi_i| is at most
         vmax_i; the factor 2 covers the rounding of the thresholds). Then x is the answer,
         as `_one_level` would find it: returned as ``(q̇, residuals, q̇_prev as floats or None,
-        the thresholds' tuple)``, the arrays fresh and read-only, for `clear_result` (which
+        the thresholds' tuple)``, the arrays fresh and read-only, for `_clear_result` (which
         makes its `CascadeResult`, with ``lower`` and ``upper`` computed on first access,
         `_lazy_box`).
         None otherwise, and for velocity limits so large that T would refuse every answer
@@ -432,7 +432,7 @@ class PriorityCascade:
         res.setflags(write=False)
         return x, res, qdl, fb
 
-    def clear_result(self, clear: tuple) -> CascadeResult:
+    def _clear_result(self, clear: tuple) -> CascadeResult:
         """The `CascadeResult` of a `_one_level_clear` answer ``clear``: no QP, every
         direction free, no joint on a face of the box, the box made on first access."""
         x, res, qdl, fb = clear
