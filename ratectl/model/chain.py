@@ -561,9 +561,14 @@ class Chain:
             v = q.tolist()
             s = sum(v)
             if s - s == 0.0:
-                k = self._kernels.get(_FKJAC) or kinematics.build_kernel(self, _FKJAC)
-                return k(*v)
+                return self._fkjac_kernel()(*v)
         return None
+
+    def _fkjac_kernel(self) -> Any:
+        """The generated kernel of `fk_jacobian` (the tool): ``k(q0, …, q{n-1})`` gives the
+        numbers of `_fk_jacobian_numbers` from one finite configuration's n floats, for a
+        caller that has checked them."""
+        return self._kernels.get(_FKJAC) or kinematics.build_kernel(self, _FKJAC)
 
     def fk_jacobian_links(self, q: ArrayLike,
                           links: Sequence[str | None]) -> list[tuple[np.ndarray, np.ndarray]]:

@@ -139,9 +139,13 @@ class Task:
     def _filled_rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
         """`rows` of a task that implements `_fill`: its rows at ``q`` written into fresh
         arrays (unscaled)."""
+        q = chain.check_q(q)
+        if q.shape != (chain.dof,):
+            raise InputError(f"rows take one configuration ({chain.dof},), got shape {q.shape}",
+                             argument="q", value=q)
         m = self._row_count(chain, q)
         A, b, e = np.empty((m, chain.dof)), np.empty(m), np.empty(m)
-        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
+        self._fill(chain, q, A, b, e, 1.0)
         return TaskRows(A=A, b=b, error=e)
 
     def __repr__(self) -> str:
@@ -269,9 +273,10 @@ class FrameTask(Task):
             T, J = pre
             self._frame_now = None
             a = T.tolist()
-        elif (self.link is None and type(self).frame is FrameTask.frame
-              and (t := chain._fk_jacobian_numbers(q)) is not None):
-            a = (t[0:4], t[4:8], t[8:12])  # (the tool: the kernel's numbers, no arrays)
+        elif self.link is None and type(self).frame is FrameTask.frame:
+            # the tool: the kernel's numbers, no arrays (q is one finite configuration: `_fill`)
+            t = chain._fkjac_kernel()(*q.tolist())
+            a = (t[0:4], t[4:8], t[8:12])
         else:
             T, J = self.frame(chain, q)
             a = T.tolist()

@@ -49,3 +49,13 @@ def test_frame_task_rows_are_the_jacobian_and_the_pose_error(kind, link, seed, w
     rows = task.rows(ch, q)  # the public form, unscaled
     np.testing.assert_allclose(rows.b, b, rtol=1e-12, atol=1e-12)
     np.testing.assert_array_equal(rows.A, J)
+
+
+@pytest.mark.parametrize("make", [lambda ch: rc.tasks.Pose(target=ch.fk(np.zeros(7))),
+                                  lambda ch: rc.tasks.Position(link="link4", target=np.zeros(3)),
+                                  lambda ch: rc.tasks.Posture(np.zeros(7))])
+@pytest.mark.parametrize("q", [np.full(7, np.nan), np.r_[np.zeros(6), np.inf], np.zeros((2, 7)), np.zeros(6)])
+def test_rows_at_a_configuration_that_is_not_one_finite_q_are_refused(make, q):
+    ch = rc.robots.panda()
+    with pytest.raises(rc.errors.InputError, match="q must|one configuration"):
+        make(ch).rows(ch, q)
