@@ -53,14 +53,14 @@ def tasks_command(stage: TasksStage, chain: Chain, res: Any, q_next: np.ndarray,
     e = stage.tool_error()  # the tool pose task's error, when there is one
     if e is None:
         e = np.zeros(6)
-        ep = eo = float("nan")
+        ep = eo = math.nan
     else:
         ex, ey, ez, rx, ry, rz = e.tolist()
         ep, eo = math.sqrt(ex * ex + ey * ey + ez * ez), math.sqrt(rx * rx + ry * ry + rz * rz)
     return make_command({"qd": qd, "q_next": q_next, "qdd": qdd.copy(), "status": status,
                          "flags": flags, "reason": reason, "error": e,
                          "position_error": ep, "orientation_error": eo, "twist": _NO_TWIST,
-                         "sigma_min": float("nan"), "damping": 0.0, "task_error": res.residuals,
+                         "sigma_min": math.nan, "damping": 0.0, "task_error": res.residuals,
                          "velocity_scale": 1.0, "limits_active": res.limits_active, "time": t0,
                          "dt": dt, "solve": res}, chain, q)
 

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..arrays import read_only, shared_zeros
-from ..errors import InputError, SolverError
+from ..errors import InputError
 from ..solvers.priority import CascadeResult, PriorityCascade
 from ..tasks.base import FrameTask, Task
 
@@ -26,6 +26,8 @@ if TYPE_CHECKING:
     from ..model.limits import Limits
 
 __all__ = ["TasksStage", "TasksResult"]
+
+_NONE: list = []  # (no collision pairs: never written)
 
 @dataclass(frozen=True, kw_only=True)
 class TasksResult:
@@ -70,6 +72,20 @@ class TasksResult:
     def task_error(self) -> np.ndarray:
         return self.residuals
 
+    def __getattr__(self, name: str) -> Any:
+        # ``task_errors`` of `TasksStage.solve`'s result, made from the list of the cycle's
+        # error norms, and the ``cascade`` of a one-level cycle clear of the box: made on
+        # first access (most cycles never read them)
+        d = self.__dict__
+        if name == "task_errors" and "_errors" in d:
+            a = d["task_errors"] = read_only(np.array(d["_errors"]))
+            return a
+        if name == "cascade" and "_cascade_of" in d:  # (a one-level cycle clear of the box)
+            cascade, clear = d["_cascade_of"]
+            r = d["cascade"] = cascade._clear_result(clear)
+            return r
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
 
 class TasksStage:
     """Tasks and collision models solved with strict priorities under the limits.
@@ -107,6 +123,10 @@ class TasksStage:
         self.collision = collision
         self.cascade = cascade if cascade is not None else PriorityCascade()
         self._key: list | None = None  # (priority, weight, rows) of each task with a target
+        # the `Task._layout_epoch` of that key: asked again only when the epoch moves, when
+        # every task is one of the package's (`Task._static_layout`), else every cycle
+        self._static = all(t._static_layout for t in tasks)
+        self._epoch = -1
         # per task with a target: (index, task, its slices of A, b and the errors, √weight)
         self._fills: list[tuple[int, Task, np.ndarray, np.ndarray, np.ndarray, float]] = []
         self._levels: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
@@ -115,6 +135,7 @@ class TasksStage:
         self._stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None = None
         self._framed: tuple[list[FrameTask], tuple[str | None, ...], list[int]] | None = None
         self._no_joint = shared_zeros(chain.dof, dtype=bool)  # (the cascade's "no joint on a face")
+        self._period: tuple[float, np.ndarray] | None = None  # (dt, `period`)
 
     def _layout(self, q: np.ndarray, key: list) -> None:
         """Each level's arrays (the weighted rows √w·A (m, n) and √w·b (m,), the errors (m,))
@@ -163,6 +184,17 @@ class TasksStage:
         self._framed = (framed, links, [links.index(t.link) for t in framed]) if len(links) > 1 else None
         self._key = key
 
+    def period(self, dt: float) -> np.ndarray:
+        """``dt`` [s] as a read-only (n,) array, kept while the period stays the same: numpy
+        arithmetic of a joint vector with it gives the numbers of that with the float, at a
+        third of the cost of the float's conversion every cycle."""
+        p = self._period
+        if p is None or p[0] != dt:
+            a = np.full(self.chain.dof, dt)
+            a.setflags(write=False)
+            p = self._period = (dt, a)
+        return p[1]
+
     def tool_error(self) -> np.ndarray | None:
         """The tool `Pose` task's error [p_d − p; log(R_d Rᵀ)] (6,) of the last solve (a
         copy), or None without one."""
@@ -173,10 +205,13 @@ class TasksStage:
         """q̇ for this cycle (see the module docstring). ``q`` finite (n,) float64 and ``dt``
         > 0, as the controller's gate passes them."""
         chain = self.chain
-        key = [(t.priority, t.weight, t._row_count(chain, q)) if t.has_target else None
-               for t in self.tasks]
-        if key != self._key:
-            self._layout(q, key)
+        epoch = Task._layout_epoch
+        if epoch != self._epoch:  # (a task may have changed its place in the levels)
+            key = [t._layout_key(chain, q) for t in self.tasks]
+            if key != self._key:
+                self._layout(q, key)
+            if self._static:
+                self._epoch = epoch
         errs = [math.nan] * len(self.tasks)
         framed = self._framed
         if framed is not None:
@@ -185,7 +220,6 @@ class TasksStage:
                 ft._frame_now = frames[i]
         for k, t, A_t, b_t, e_t, sw in self._fills:
             errs[k] = t._fill(chain, q, A_t, b_t, e_t, sw)
-        errors = np.array(errs)
         levels = self._levels
         damper = None
         rows: tuple[np.ndarray, np.ndarray] | None = None
@@ -195,12 +229,19 @@ class TasksStage:
             if h.size:
                 rows = (G, h)
         else:
-            pairs, dist, closest = [], [], math.inf
-        res = self.cascade.solve_validated(levels, limits=limits, q=q, qd_prev=qd_prev, dt=dt,
-                                           extra_inequalities=rows, stacked=self._stacked)
-        if not math.isfinite(sum(res.qd.tolist())):
-            raise SolverError("the priority cascade gave a non-finite q̇ (non-finite task rows?)",
-                              status="failed")
+            pairs, dist, closest = _NONE, _NONE, math.inf
+        cascade = self.cascade
+        n = chain.dof
+        if rows is None and len(levels) == 1 and limits is not None and n:
+            # one level clear of the box, the common cycle (`solve_validated`'s first try): its
+            # CascadeResult made when read
+            clear = cascade._one_level_clear(levels[0], n, limits, q, qd_prev, dt)
+            if clear is not None:
+                return _owned_result(TasksResult, {
+                    "qd": clear[0], "priorities": self._priorities, "residuals": clear[1], "_errors": errs,
+                    "flags": (), "reasons": (), "limits_active": (), "collision_distance": math.inf,
+                    "_cascade_of": (cascade, clear), "damper_rows": None})
+        res = cascade._solve_boxed(levels, n, limits, q, qd_prev, dt, rows, self._stacked)
         active_box = res.box_active
         if rows is None and (limits is None or active_box is self._no_joint
                              or True not in active_box.tolist()):
@@ -210,9 +251,8 @@ class TasksStage:
         else:
             flags, reasons, active = self._held_back(res, rows, pairs, dist, q=q, qd_prev=qd_prev, dt=dt,
                                                      limits=limits)
-        errors.setflags(write=False)
         return _owned_result(TasksResult, {
-            "qd": res.qd, "priorities": self._priorities, "residuals": res.residuals, "task_errors": errors,
+            "qd": res.qd, "priorities": self._priorities, "residuals": res.residuals, "_errors": errs,
             "flags": flags, "reasons": reasons, "limits_active": active,
             "collision_distance": float(closest), "cascade": res, "damper_rows": damper})
 

@@ -542,19 +542,33 @@ class Chain:
         ``(fk(q)[:3].tolist(), jacobian(q))`` from one kernel call, for code that works on
         the pose's numbers (a pose error on rows of floats, every control cycle) without an
         array and its ``tolist()``."""
-        if type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64:
-            v = q.tolist()
-            s = sum(v)
-            if s - s == 0.0:
-                k = self._kernels.get(_FKJAC) or kinematics.build_kernel(self, _FKJAC)
-                t = k(*v)
-                n = self._n
-                return (t[0:4], t[4:8], t[8:12]), _fromiter(t, _F64, 16 + 6 * n)[16:].reshape(6, n)
+        t = self._fk_jacobian_numbers(q)
+        if t is not None:
+            n = self._n
+            return (t[0:4], t[4:8], t[8:12]), _fromiter(t, _F64, 16 + 6 * n)[16:].reshape(6, n)
         T, J = self.fk_jacobian(q)
         if T.ndim != 2:
             raise InputError(f"fk_rows_jacobian takes one configuration ({self._n},), got a batch of "
                              f"shape {T.shape[:-2]}", argument="q", value=q)
         return T[:3].tolist(), J
+
+    def _fk_jacobian_numbers(self, q: ArrayLike) -> tuple[float, ...] | None:
+        """The numbers of ``fk_jacobian(q)`` as the generated kernel gives them, one tuple of
+        Python floats: the tool pose's 16 entries then the Jacobian's 6·n, each row-major;
+        None unless q is one finite configuration, an (n,) float64 array (the caller then
+        takes `fk_jacobian`)."""
+        if type(q) is np.ndarray and q.shape == self._qshape and q.dtype == _F64:
+            v = q.tolist()
+            s = sum(v)
+            if s - s == 0.0:
+                return self._fkjac_kernel()(*v)
+        return None
+
+    def _fkjac_kernel(self) -> Any:
+        """The generated kernel of `fk_jacobian` (the tool): ``k(q0, …, q{n-1})`` gives the
+        numbers of `_fk_jacobian_numbers` from one finite configuration's n floats, for a
+        caller that has checked them."""
+        return self._kernels.get(_FKJAC) or kinematics.build_kernel(self, _FKJAC)
 
     def fk_jacobian_links(self, q: ArrayLike,
                           links: Sequence[str | None]) -> list[tuple[np.ndarray, np.ndarray]]:

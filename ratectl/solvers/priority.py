@@ -109,6 +109,43 @@ class CascadeResult:
         for name in ("qps", "freedom", "box_active", "rows_active"):
             object.__setattr__(self, name, read_only(getattr(self, name), dtype=None))
 
+    def __getattr__(self, name: str) -> Any:
+        # ``lower`` and ``upper`` of a one-level step clear of the box, made on first access
+        # (`PriorityCascade._one_level_clear` keeps what they are made of, `_lazy_box`)
+        d = self.__dict__
+        if (name == "lower" or name == "upper") and "_box_of" in d:
+            d["lower"], d["upper"] = _lazy_box(*d["_box_of"])
+            return d[name]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+
+def _clear_thresholds(bc: _BoundCache) -> tuple[list[float] | None, ...]:
+    """The thresholds of `PriorityCascade._one_level_clear`, with ``T = _ACT_TOL·max(2·max
+    vmax, 1)``: ``(vmax − 2T, −(vmax − 2T), amax·dt − 2T, −(amax·dt − 2T))`` as lists of
+    floats (the last two None without an acceleration side); all None when T exceeds 1e-3
+    (velocity limits so large, or absent, that the test would refuse every answer)."""
+    t2 = 2.0 * _ACT_TOL * max(2.0 * max(bc.vmax_l), 1.0)
+    if not t2 <= 1e-3:
+        return None, None, None, None
+    hi = [v - t2 for v in bc.vmax_l]
+    if bc.amax_dt_l is None or not bc.has_acc:
+        return hi, [-v for v in hi], None, None
+    acc = [a - t2 for a in bc.amax_dt_l]
+    return hi, [-v for v in hi], acc, [-a for a in acc]
+
+
+def _lazy_box(bc: _BoundCache, qdl: list[float] | None) -> tuple[np.ndarray, np.ndarray]:
+    """The box of a step with no joint near a position limit (`_box`'s arithmetic, read-only
+    arrays): ±vmax, narrowed to q̇_prev ± amax·dt with ``qdl`` the previous q̇ as floats."""
+    if qdl is None:
+        return bc.nvmax, bc.vmax
+    qd = np.array(qdl)
+    lo = np.maximum(bc.nvmax, qd - bc.amax_dt)
+    hi = np.minimum(bc.vmax, qd + bc.amax_dt)
+    lo.setflags(write=False)
+    hi.setflags(write=False)
+    return lo, hi
+
 
 def default_backend() -> str:
     """``"daqp"`` when the package is installed (the ``qp-fast`` extra), else ``"proxqp"``
@@ -198,6 +235,7 @@ class PriorityCascade:
         self._no_rows: dict[int, np.ndarray] = {}  # G (0, n) of a solve without extra rows
         self._projection: np.ndarray | None = None  # the last null-space projection within the box
         self._one_fixed: tuple | None = None  # (n, qps, freedom, box_active) of `_one_level`
+        self._fbox: tuple | None = None  # (bound cache, *`_clear_thresholds`, ...) of `_one_level_clear`
 
     def __repr__(self) -> str:
         return f"PriorityCascade(backend={self.backend!r}, damping={self.damping!r})"
@@ -287,14 +325,27 @@ class PriorityCascade:
         ``(G (k, n), h (k,))`` float64 with k ≥ 1, or None. ``stacked``: when every level's
         A and b are consecutive row blocks of one (M, n) array and one (M,) vector, and no
         level has weights, ``(A_all, b_all, ends)`` with ``ends`` each level's last row + 1:
-        the residuals then come from one product. The answer is `solve`'s."""
+        the residuals then come from one product. The answer is `solve`'s; a non-finite q̇
+        raises SolverError."""
         n = levels[0][0].shape[1]
+        if extra_inequalities is None and len(levels) == 1 and n and limits is not None:
+            clear = self._one_level_clear(levels[0], n, limits, q, qd_prev, dt)
+            if clear is not None:
+                return self._clear_result(clear)
+        return self._solve_boxed(levels, n, limits, q, qd_prev, dt, extra_inequalities, stacked)
+
+    def _solve_boxed(self, levels: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray | None]], n: int,
+                     limits: Limits | Chain | None, q: np.ndarray | None, qd_prev: np.ndarray | None,
+                     dt: float | None, extra_inequalities: tuple[np.ndarray, np.ndarray] | None,
+                     stacked: tuple[np.ndarray, np.ndarray, tuple[int, ...]] | None) -> CascadeResult:
+        """`solve_validated` on the box's arrays: all of it but its first try,
+        `_one_level_clear` (one level under limits without extra rows)."""
         lo, hi = self.box(n, limits, q, qd_prev, dt)
         bc = self._bcache
         for a in (lo, hi):  # the step's own box is frozen in place for the result (not copied)
             if bc is None or (a is not bc.vmax and a is not bc.nvmax):
                 a.setflags(write=False)
-        if extra_inequalities is None and len(levels) == 1 and n:
+        if extra_inequalities is None and len(levels) == 1 and n and limits is None:
             one = self._one_level(levels[0], lo, hi, n)
             if one is not None:
                 return one
@@ -307,14 +358,89 @@ class PriorityCascade:
         else:
             G, h = extra_inequalities
         try:
-            return self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]) if h.size else _NO_H, n,
-                                 stacked=stacked)
+            return _finite(self._cascade(levels, lo, hi, G, h, np.zeros(h.shape[0]) if h.size else _NO_H, n,
+                                         stacked=stacked))
         except _Infeasible:
             if not h.size:
                 raise SolverError(f"the priority cascade's first level failed on backend "
                                   f"{self.backend!r}", status="failed") from None
         relaxed, feasible = self._relaxation(lo, hi, G, h)
-        return self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible, stacked=stacked)
+        return _finite(self._cascade(levels, lo, hi, G, h + relaxed, relaxed, n, fallback=feasible,
+                                     stacked=stacked))
+
+    def _one_level_clear(self, level, n: int, limits: Limits | Chain, q: np.ndarray | None,
+                         qd_prev: np.ndarray | None, dt: float | None) -> tuple | None:
+        """`_one_level` under the limits for the common step, without the box's arrays: when
+        no joint is near a position limit (farther than it can travel at vmax in one period
+        and still stop: the bound cache's thresholds), the box is
+
+            lo_i = max(−vmax_i, q̇_prev,i − amax_i·dt),   hi_i = min(vmax_i, q̇_prev,i + amax_i·dt)
+
+        (±vmax without the acceleration side), and the minimiser x is clear of its faces by
+        more than the activity tolerance ``tol = _ACT_TOL·max(max|hi| + max|lo|, 1)`` when
+
+            |x_i| < vmax_i − 2T   and   |x_i − q̇_prev,i| < amax_i·dt − 2T   for every i,
+
+        with ``T = _ACT_TOL·max(2·max vmax, 1)`` ≥ tol (every |lo_i|, |hi_i| is at most
+        vmax_i; the factor 2 covers the rounding of the thresholds). Then x is the answer,
+        as `_one_level` would find it: returned as ``(q̇, residuals, q̇_prev as floats or None,
+        the thresholds' tuple)``, the arrays fresh and read-only, for `_clear_result` (which
+        makes its `CascadeResult`, with ``lower`` and ``upper`` computed on first access,
+        `_lazy_box`).
+        None otherwise, and for velocity limits so large that T would refuse every answer
+        (`solve_validated` decides, on the arrays)."""
+        bc = self._bcache
+        if bc is None or bc.src is not limits or bc.dt != dt or bc.n != n:
+            bc = self._cache(n, limits, dt)
+        fb = self._fbox
+        if fb is None or fb[0] is not bc:
+            # per bound cache: the thresholds, λ²I (None for λ = 0) and the result's constant
+            # arrays (qps, freedom, box_active)
+            fb = self._fbox = (bc, *_clear_thresholds(bc), self._lam2_eye(n) if self.damping**2 else None,
+                               self._frozen([False], bool), self._frozen([n], int),
+                               shared_zeros(n, dtype=bool))
+        if fb[1] is None:
+            return None
+        if q is not None and bc.has_pos:
+            if bc.inv_dt is None:
+                return None
+            ql = q.tolist()
+            if any(map(_gt, ql, bc.near_hi_l)) or any(map(_lt, ql, bc.near_lo_l)):
+                return None
+        A, b, sw = level
+        M = A if sw is None else sw[:, None] * A
+        H = M.T.dot(M)
+        if fb[5] is not None:
+            H += fb[5]
+        x = _spd_solve(H, M.T.dot(b if sw is None else b * sw))
+        xl = x.tolist()
+        if not (all(map(_lt, xl, fb[1])) and all(map(_gt, xl, fb[2]))):
+            return None
+        qdl = None
+        if qd_prev is not None and fb[3] is not None:
+            qdl = qd_prev.tolist()
+            d = list(map(_sub, xl, qdl))
+            if not (all(map(_lt, d, fb[3])) and all(map(_gt, d, fb[4]))):
+                return None
+        self._projection = x
+        d = A.dot(x)
+        d -= b
+        if sw is not None:
+            d *= sw
+        res = np.array([math.sqrt(d.dot(d))])
+        x.setflags(write=False)
+        res.setflags(write=False)
+        return x, res, qdl, fb
+
+    def _clear_result(self, clear: tuple) -> CascadeResult:
+        """The `CascadeResult` of a `_one_level_clear` answer ``clear``: no QP, every
+        direction free, no joint on a face of the box, the box made on first access."""
+        x, res, qdl, fb = clear
+        r = object.__new__(CascadeResult)
+        object.__setattr__(r, "__dict__", {
+            "qd": x, "residuals": res, "qps": fb[6], "freedom": fb[7], "box_active": fb[8],
+            "rows_active": _NO_ROWS, "relaxed": _NO_H, "backend": self.backend, "_box_of": (fb[0], qdl)})
+        return r
 
     def _one_level(self, level, lo, hi, n) -> CascadeResult | None:
         """One level and no extra rows, the common case of a single weighted least squares
@@ -674,6 +800,15 @@ class PriorityCascade:
         return None if x is None else np.asarray(x, dtype=float)
 
 
+def _finite(res: CascadeResult) -> CascadeResult:
+    """``res`` when its q̇ is finite, else SolverError (finite levels whose arithmetic
+    overflowed). The answers of `PriorityCascade._one_level` and `_one_level_clear` are
+    finite by their test against the box (NaN passes no comparison)."""
+    if not math.isfinite(sum(res.qd.tolist())):
+        raise SolverError("the priority cascade gave a non-finite q̇ (task rows too large?)", status="failed")
+    return res
+
+
 def _residuals(levels, x: np.ndarray) -> np.ndarray:
     """‖W_k^{1/2}(A_k q̇ − b_k)‖ of every level at q̇ = x."""
     res = []
@@ -714,9 +849,12 @@ _STARTS: dict[tuple[int, ...], Any] = {}
 
 
 def _spd_solve(H: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """H⁻¹g for a symmetric positive (semi)definite H: Cholesky (LAPACK ``dposv``), the
-    least-squares answer where H is singular (λ = 0 and rank-deficient rows)."""
-    c, z, info = _dposv(H, g)
+    """H⁻¹g for a symmetric positive (semi)definite H (exactly symmetric: MᵀM + λ²I):
+    Cholesky (LAPACK ``dposv``), the least-squares answer where H is singular (λ = 0 and
+    rank-deficient rows)."""
+    # (H is exactly symmetric — numpy forms MᵀM with one symmetric rank-k update — so its
+    # transpose, a Fortran-ordered view, holds the same numbers: LAPACK takes it as it is)
+    c, z, info = _dposv(H.T, g)
     if info == 0:
         return z
     return np.linalg.lstsq(H, g, rcond=None)[0]

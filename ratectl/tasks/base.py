@@ -5,8 +5,9 @@ a link's frame."""
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -55,14 +56,45 @@ class Task:
 
     #: rows per task (None: depends on the chain)
     size: int | None = None
+    #: advanced whenever a task changes its place in a controller's level arrays: a priority
+    #: or a weight set, a first target, a posture's new reference (`_layout_changed`)
+    _layout_epoch = 0
+    #: whether that place (`_layout_key`) changes only with `_layout_epoch`: the tasks of
+    #: this package; a subclass defined elsewhere may count its rows anew any cycle
+    _static_layout = True
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if not cls.__module__.startswith("ratectl."):
+            cls._static_layout = False
 
     def __init__(self, *, priority: int = 0, weight: float = 1.0, gain: float = 10.0) -> None:
-        if isinstance(priority, bool) or not isinstance(priority, int | np.integer) or priority < 0:
-            raise InputError(f"priority must be an integer ≥ 0 (0 is the highest), got {priority!r}",
-                             argument="priority", value=priority)
-        self.priority = int(priority)
-        self.weight = positive_number("weight", weight)
+        self.priority = priority
+        self.weight = weight
         self.gain = positive_number("gain", gain, allow_zero=True, unit="[1/s]")
+
+    @property
+    def priority(self) -> int:
+        """0 is the highest (an integer ≥ 0)."""
+        return self._priority
+
+    @priority.setter
+    def priority(self, value: int) -> None:
+        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+            raise InputError(f"priority must be an integer ≥ 0 (0 is the highest), got {value!r}",
+                             argument="priority", value=value)
+        self._priority = int(value)
+        _layout_changed()
+
+    @property
+    def weight(self) -> float:
+        """The task's weight within its level (> 0)."""
+        return self._weight
+
+    @weight.setter
+    def weight(self, value: float) -> None:
+        self._weight = positive_number("weight", value)
+        _layout_changed()
 
     @property
     def has_target(self) -> bool:
@@ -83,6 +115,11 @@ class Task:
             return self.size
         return int(self.rows(chain, q).b.shape[0])
 
+    def _layout_key(self, chain: Chain, q: np.ndarray) -> tuple[int, float, int] | None:
+        """``(priority, weight, rows)``, or None without a target: what fixes the task's place
+        in the controller's level arrays (asked every cycle)."""
+        return (self.priority, self.weight, self._row_count(chain, q)) if self.has_target else None
+
     def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
               s: float) -> float:
         """Write the rows at ``q`` (finite, (n,) float64) scaled by ``s`` (√weight) into ``A``
@@ -102,13 +139,42 @@ class Task:
     def _filled_rows(self, chain: Chain, q: np.ndarray) -> TaskRows:
         """`rows` of a task that implements `_fill`: its rows at ``q`` written into fresh
         arrays (unscaled)."""
+        q = chain.check_q(q)
+        if q.shape != (chain.dof,):
+            raise InputError(f"rows take one configuration ({chain.dof},), got shape {q.shape}",
+                             argument="q", value=q)
         m = self._row_count(chain, q)
         A, b, e = np.empty((m, chain.dof)), np.empty(m), np.empty(m)
-        self._fill(chain, np.asarray(q, dtype=float), A, b, e, 1.0)
+        self._fill(chain, q, A, b, e, 1.0)
         return TaskRows(A=A, b=b, error=e)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(priority={self.priority}, weight={self.weight:g}, gain={self.gain:g})"
+
+
+_STRUCTS: dict[int, Any] = {}
+
+
+def _float_writers(*arrays: np.ndarray) -> tuple[tuple[Any, memoryview], ...] | None:
+    """For each array (float64, C-contiguous, writeable), ``(pack_into, memory)``:
+    ``pack_into(memory, 0, *values)`` writes ``a.size`` Python floats into the array in
+    order (`struct`, native doubles) — cheaper, for a few numbers every cycle, than numpy's
+    conversion of a sequence. None when an array is not such an array (the caller then
+    assigns)."""
+    out = []
+    for a in arrays:
+        if a.dtype != np.float64 or not a.flags.c_contiguous or not a.flags.writeable:
+            return None
+        st = _STRUCTS.get(a.size)
+        if st is None:
+            st = _STRUCTS[a.size] = struct.Struct(f"={a.size}d")
+        out.append((st.pack_into, memoryview(a).cast("B")))  # type: ignore[arg-type]
+    return tuple(out)
+
+
+def _layout_changed() -> None:
+    """A task changed its place in the level arrays (see `Task._layout_epoch`)."""
+    Task._layout_epoch += 1
 
 
 def check_pose(T: ArrayLike, name: str = "target") -> np.ndarray:
@@ -167,6 +233,7 @@ class FrameTask(Task):
         # (pose, Jacobian) of the frame at this cycle's q, set just before `_fill` by a caller
         # that computes several tasks' frames in one pass (the controller's tasks stage)
         self._frame_now: tuple[np.ndarray, np.ndarray] | None = None
+        self._writers: tuple | None = None  # (A, b, e, their `_float_writers`) of the last `_fill`
 
     @property
     def has_target(self) -> bool:
@@ -178,6 +245,8 @@ class FrameTask(Task):
         return None if self._target is None else self._target.copy()
 
     def _set(self, T: np.ndarray, twist: np.ndarray | None) -> None:
+        if self._target is None:  # (a first target: the task joins its level)
+            _layout_changed()
         self._target = T
         self._target_rows = T.tolist()
         self._twist = np.zeros(6)
@@ -199,12 +268,15 @@ class FrameTask(Task):
             raise InputError(f"{self!r} has no target: call set_target first", argument="target",
                              value=None)
         pre = self._frame_now
+        t = None
         if pre is not None:  # (computed with the other tasks' frames by the controller)
             T, J = pre
             self._frame_now = None
             a = T.tolist()
         elif self.link is None and type(self).frame is FrameTask.frame:
-            a, J = chain.fk_rows_jacobian(q)  # (the tool: its rows as floats, no 4×4 array)
+            # the tool: the kernel's numbers, no arrays (q is one finite configuration: `_fill`)
+            t = chain._fkjac_kernel()(*q.tolist())
+            a = (t[0:4], t[4:8], t[8:12])
         else:
             T, J = self.frame(chain, q)
             a = T.tolist()
@@ -215,28 +287,45 @@ class FrameTask(Task):
         r = self._rows
         g = self.gain * s
         if r.stop == 3:  # the position alone (no rotation error to compute)
-            e[:] = (ex, ey, ez)
-            b[:] = (ex * g, ey * g, ez * g)
+            ev: tuple[float, ...] = (ex, ey, ez)
+            bv: tuple[float, ...] = (ex * g, ey * g, ez * g)
             norm = math.sqrt(ex * ex + ey * ey + ez * ez)
         else:
             x, y, z, th = rotation_error_rows(d, a)
             if r.start == 0:  # the full pose
-                e[:] = (ex, ey, ez, x, y, z)
-                b[:] = (ex * g, ey * g, ez * g, x * g, y * g, z * g)
+                ev = (ex, ey, ez, x, y, z)
+                bv = (ex * g, ey * g, ez * g, x * g, y * g, z * g)
                 ep = math.sqrt(ex * ex + ey * ey + ez * ez)
                 norm = math.sqrt(ep * ep + th * th)
             else:  # the orientation alone
-                e[:] = (x, y, z)
-                b[:] = (x * g, y * g, z * g)
+                ev = (x, y, z)
+                bv = (x * g, y * g, z * g)
                 norm = th
-        if r.stop - r.start == 6:
-            Jr = J
+        w = self._writers
+        if w is None or w[0] is not A or w[1] is not b or w[2] is not e:
+            w = self._writers = (A, b, e, _float_writers(A, b, e))
+        wr = w[3]
+        if wr is not None:  # (the numbers straight into the arrays' memory)
+            wr[1][0](wr[1][1], 0, *bv)
+            wr[2][0](wr[2][1], 0, *ev)
         else:
-            Jr = J[r]
-        if s == 1.0:  # (a weight of 1: the rows as they are, a copy)
-            A[...] = Jr
+            b[:] = bv
+            e[:] = ev
+        if t is not None and wr is not None:
+            # the Jacobian's rows straight from the kernel's numbers into A's memory
+            n = A.shape[1]
+            wr[0][0](wr[0][1], 0, *t[16 + r.start * n:16 + r.stop * n])
+            if s != 1.0:
+                A *= s
         else:
-            np.multiply(Jr, s, out=A)
+            if t is not None:
+                n = A.shape[1]
+                J = np.array(t[16:]).reshape(6, n)
+            Jr = J if r.stop - r.start == 6 else J[r]
+            if s == 1.0:  # (a weight of 1: the rows as they are, a copy)
+                A[...] = Jr
+            else:
+                np.multiply(Jr, s, out=A)
         if self._has_twist:
             b += s * self._twist[r]
         return norm

@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..model.limits import braking_speed_scalar
-from .base import Task, TaskRows, check_vector
+from .base import Task, TaskRows, _layout_changed, check_vector
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -53,6 +53,7 @@ class Posture(Task):
         self._estar: tuple | None = None  # (chain, gain, e* per joint, amax, jmax lists)
         self._rows_in: tuple | None = None  # (A, s, n): the array whose rows were last written
         self._valid: tuple | None = None  # (q_ref, chain, rows): the last q_ref checked on a chain
+        self._gain_row: tuple[float, np.ndarray] | None = None  # (K·s, K·s per row) of `_brake`
 
     @property
     def has_target(self) -> bool:
@@ -65,6 +66,7 @@ class Posture(Task):
     def set_target(self, q_ref: ArrayLike) -> None:
         """Track the configuration ``q_ref`` (n,) [rad or m]."""
         self._q_ref = check_vector(q_ref, int(np.size(q_ref)), "q_ref", "[rad or m]")
+        _layout_changed()  # (a first target, or another number of joints: checked again)
 
     def _checked(self, chain: Chain) -> np.ndarray:
         """q_ref, checked against the chain (its size, the joint indices)."""
@@ -93,7 +95,10 @@ class Posture(Task):
                                al, jl)
         estar = c[2]
         el = e.tolist()
-        np.multiply(e, K * s, out=b)
+        g = self._gain_row
+        if g is None or g[0] != K * s or g[1].shape != e.shape:
+            g = self._gain_row = (K * s, np.full(e.shape, K * s))
+        np.multiply(e, g[1], b)  # (K·s as an array: the numbers of the float's product, cheaper)
         if not any(map(_gt, map(abs, el), estar)):
             return  # every joint within its linear range (the common case)
         al, jl = c[3], c[4]
@@ -117,7 +122,7 @@ class Posture(Task):
     def _fill(self, chain: Chain, q: np.ndarray, A: np.ndarray, b: np.ndarray, e: np.ndarray,
               s: float) -> float:
         """``A = I`` (the rows of ``joints``), ``e = q_ref − q``, ``b = K e`` (scaled by s)."""
-        q_ref = self._q_ref  # (checked against the chain by _row_count, asked first every cycle)
+        q_ref = self._q_ref  # (checked against the chain by _row_count, asked after every set_target)
         if q_ref is None:
             q_ref = self._checked(chain)  # raises
         j = self._joints
@@ -135,7 +140,7 @@ class Posture(Task):
                 self._A = (key, rows if j is None else rows[j])
             A[...] = self._A[1]
             self._rows_in = (A, s, n)
-        return math.sqrt(float(e.dot(e)))
+        return math.sqrt(e.dot(e))
 
 
 def _linear_up_to(K: float, amax: float, jmax: float) -> float:

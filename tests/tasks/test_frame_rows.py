@@ -16,8 +16,8 @@ ROWS = {"Pose": slice(0, 6), "Position": slice(0, 3), "Orientation": slice(3, 6)
 @settings(max_examples=60, deadline=None)
 @given(kind=st.sampled_from(sorted(ROWS)), link=st.sampled_from([None, "link4", "link7"]),
        seed=st.integers(0, 10_000), weight=st.sampled_from([1.0, 0.3]), gain=st.floats(0.0, 50.0),
-       twist=st.booleans())
-def test_frame_task_rows_are_the_jacobian_and_the_pose_error(kind, link, seed, weight, gain, twist):
+       twist=st.booleans(), strided=st.booleans())
+def test_frame_task_rows_are_the_jacobian_and_the_pose_error(kind, link, seed, weight, gain, twist, strided):
     ch = rc.robots.panda()
     rng = np.random.default_rng(seed)
     q = ch.random_q(rng=rng)
@@ -36,7 +36,8 @@ def test_frame_task_rows_are_the_jacobian_and_the_pose_error(kind, link, seed, w
     e = rc.spatial.pose_error(T_target, T)[r]
     J = ch.jacobian(q, link=link)[r]
     b = gain * e + (ff if twist else 0.0)
-    A = np.zeros((r.stop - r.start, 7))
+    # the rows written into an array of their own or into a column block of a wider one
+    A = np.zeros((r.stop - r.start, 9))[:, 1:8] if strided else np.zeros((r.stop - r.start, 7))
     bb = np.zeros(r.stop - r.start)
     ee = np.zeros(r.stop - r.start)
     sw = math.sqrt(weight)
@@ -48,3 +49,13 @@ def test_frame_task_rows_are_the_jacobian_and_the_pose_error(kind, link, seed, w
     rows = task.rows(ch, q)  # the public form, unscaled
     np.testing.assert_allclose(rows.b, b, rtol=1e-12, atol=1e-12)
     np.testing.assert_array_equal(rows.A, J)
+
+
+@pytest.mark.parametrize("make", [lambda ch: rc.tasks.Pose(target=ch.fk(np.zeros(7))),
+                                  lambda ch: rc.tasks.Position(link="link4", target=np.zeros(3)),
+                                  lambda ch: rc.tasks.Posture(np.zeros(7))])
+@pytest.mark.parametrize("q", [np.full(7, np.nan), np.r_[np.zeros(6), np.inf], np.zeros((2, 7)), np.zeros(6)])
+def test_rows_at_a_configuration_that_is_not_one_finite_q_are_refused(make, q):
+    ch = rc.robots.panda()
+    with pytest.raises(rc.errors.InputError, match="q must|one configuration"):
+        make(ch).rows(ch, q)

@@ -173,6 +173,8 @@ def test_a_task_with_rows_alone_is_solved_and_may_change_its_number_of_rows():
     assert cmd.status != "halted", cmd.reason
     assert np.abs(cmd.qd[:4]).max() < 1e-12 < np.abs(cmd.qd[4:]).min()
     np.testing.assert_allclose(cmd.solve.task_errors, [0.0, np.linalg.norm(0.3 * np.ones(7))])
+    assert cmd.solve.task_errors is cmd.solve.task_errors  # (made once, on first access)
+    assert not cmd.solve.task_errors.flags.writeable
 
 
 @pytest.mark.parametrize("seed", range(8))
