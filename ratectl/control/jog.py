@@ -1,4 +1,5 @@
-"""Jogging: the tool moves along the commanded twist ξ at a fraction c ∈ [0, 1] of it.
+"""Jogging: the tool moves along the commanded twist ξ at a fraction c ∈ [0, 1] of it (a
+smoothed jog whose twist turns back: c ∈ [−1, 0) until it rises through rest).
 
     q̇ = c·J⁺ξ
 
@@ -40,9 +41,9 @@ __all__ = ["Jog", "JogStage"]
 
 
 class Jog:
-    """The fraction c ∈ [0, 1] of the commanded twist the tool moves at (see the module
-    docstring). Owns c, ċ, the last commanded twist and a stop planned before a
-    singularity."""
+    """The fraction c ∈ [0, 1] (down to −1 on a smoothed twist that turns back) of the
+    commanded twist the tool moves at (see the module docstring). Owns c, ċ, the last
+    commanded twist and a stop planned before a singularity."""
 
     def __init__(self) -> None:
         self.reset()
@@ -72,10 +73,11 @@ class Jog:
             nn = float(twist.dot(twist))  # (ndarray.dot: the same product as @, cheaper)
             ratio = float(prev.dot(twist)) / nn if nn > 0.0 else 0.0
             c = self.c * ratio
-            self.c = min(max(c, -1.0 if signed else 0.0), 1.0)
+            lowest = -1.0 if signed else 0.0
+            self.c = min(max(c, lowest), 1.0)
             # (smoothed) ċ likewise, where c is not clipped: a twist that turns a little every
             # period keeps its jerk-limited progress going
-            self.cd = self.cd * ratio if (-1.0 if signed else 0.0) < c < 1.0 else 0.0
+            self.cd = self.cd * ratio if lowest < c < 1.0 else 0.0
             self.w_prev = None
         self.twist = twist.copy()
 

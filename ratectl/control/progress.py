@@ -462,12 +462,12 @@ class ProgressLimits:
         room = math.inf
         bend_peak = False
         if share > _LOST:  # being lost here: the slope of σ_min at q, and its bend
-            sigma_ahead = exact(q + w * ds, share=False)[0]
-            drop = sigma - sigma_ahead
-            if drop > _SIGMA_NOISE * (1.0 + sigma):  # (else moving away from it, or along it)
+            drop = sigma - exact(q + w * ds, share=False)[0]
+            falls = drop > _SIGMA_NOISE * (1.0 + sigma)  # (else moving away from it, or along it)
+            if falls:
                 room = (sigma - self.stop_sigma) / (2.0 * drop / ds)
             # (below the stop, unless it falls here: the slope already stops it)
-            if sigma > self.stop_sigma or drop <= _SIGMA_NOISE * (1.0 + sigma):
+            if sigma > self.stop_sigma or not falls:
                 bend = self._bend_room(q, w, exact, sigma, -drop / ds)
                 if bend < room:  # (below the stop: the peak of a rise)
                     room, bend_peak = bend, sigma <= self.stop_sigma
