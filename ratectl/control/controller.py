@@ -118,7 +118,6 @@ class ResolvedRateController:
                                  argument="limits", value=limits)
             limits = chain
         self.limits = None if limits is None else Limits.of(limits, n)
-        self._all_joints = np.ones(n, dtype=bool)
         self.filter: VelocityFilter | None = _checked_filter(smoothing, chain)
         self.position_tolerance = positive_number("position_tolerance", position_tolerance, unit="[m]")
         self.orientation_tolerance = positive_number("orientation_tolerance", orientation_tolerance,
@@ -388,12 +387,12 @@ class ResolvedRateController:
     # ------------------------------------------------------------------ halting
     def _halt(self, q, dt, reason, *, status="halted", sigma_min=float("nan"), error=None,
               ep=float("nan"), eo=float("nan")) -> Command:
-        """Bring every joint to rest as fast as its own limits allow (each joint on its own,
-        so a joint that was braking for its position limit keeps braking at its full rate):
-        |q̇_i| drops by amax_i·dt per period (at once without an acceleration limit), or, with
-        smoothing, each joint's time-optimal jerk-limited stop. The motion continues from
-        the measured q, or — when q is not finite — from the last commanded position, so the
-        commanded stream stays continuous."""
+        """Bring the joints to rest together, along the direction they move in (`brake`,
+        `ratectl.control.halt`: the slowest joint's own stop, the others scaled to it; with
+        smoothing the filter's synchronised jerk-limited stop); a joint whose share of that
+        stop would run past its position limit brakes on its own at its full rate. The
+        motion continues from the measured q, or — when q is not finite — from the last
+        commanded position, so the commanded stream stays continuous."""
         qd_prev = self._m.qd
         if np.all(np.isfinite(q)):
             base = q
@@ -401,7 +400,7 @@ class ResolvedRateController:
             base = self._m.q_next if self._m.q_next is not None else self._q_last
         if base is None:
             base = np.zeros(self._n)
-        q_next, qd, qdd, reason = brake(base, qd_prev, dt, self.filter, self.limits, self._all_joints, reason)
+        q_next, qd, qdd, reason = brake(base, qd_prev, dt, self.filter, self.limits, reason)
         t0 = self._advance(base, q_next, qd, qdd, dt)
         return make_command({"qd": qd, "q_next": q_next, "qdd": qdd.copy(), "status": status,
                              "flags": (status,), "reason": reason,

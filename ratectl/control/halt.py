@@ -1,10 +1,21 @@
-"""The safe halt's motion: every joint to rest as fast as its own limits allow.
+"""The safe halt's motion: every joint to rest together, along the direction it moves in.
 
 `brake` computes one period of it for the controller's ``_halt`` (which records the
-command and says why): each joint on its own, so a joint that was braking for its
-position limit keeps braking at its full rate; |q̇_i| drops by amax_i·dt per period (at
-once without an acceleration limit), or, with smoothing, along each joint's time-optimal
-jerk-limited stop.
+command and says why). The joints slow down together, so the arm stops on the joint path
+it was on and the tool on (very nearly) its own path, instead of each joint on its own,
+which bends the tool off its line by millimetres while the fastest joints stop first:
+
+* without smoothing, q̇ = q̇_prev·max(1 − ρ·dt, 0) with ρ = min_i amax_i/|q̇_prev,i| [1/s]:
+  the joint that needs longest to stop brakes at its amax, the others at the same fraction
+  of their speed (at most their amax); no acceleration limit: at rest at once;
+* with smoothing, the filter's time-synchronised jerk-limited stop (all joints reach rest
+  together, within amax and jmax).
+
+A joint whose share of that common stop would run past a position limit (farther than
+its room, or further out when it is already past one) is braked on its own instead, as
+fast as its limits allow (|q̇_i| drops by amax_i·dt per period; with smoothing its own
+time-optimal jerk-limited stop): a joint that was braking for its limit keeps braking at
+its full rate. The common stop takes no longer than the slowest joint's own stop.
 """
 
 from __future__ import annotations
@@ -23,23 +34,56 @@ __all__ = ["brake"]
 
 
 def brake(base: np.ndarray, qd_prev: np.ndarray, dt: float, filter: VelocityFilter | None,
-          limits: Limits | None, independent: np.ndarray,
-          reason: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+          limits: Limits | None, reason: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
     """One period of the halt from position ``base`` and velocity ``qd_prev`` over ``dt``
-    [s]: ``(q_next, q̇, q̈, reason)``; with a smoothing ``filter`` its stop of every joint
-    (``independent``: all of them, each on its own), or — when the filter fails — the
-    amax braking q̇ = sign(q̇_prev)·max(|q̇_prev| − amax·dt, 0), q_next = base + q̇·dt, with
-    the failure added to ``reason``."""
+    [s]: ``(q_next, q̇, q̈, reason)`` (see the module docstring); with a smoothing
+    ``filter`` its synchronised stop, or — when the filter fails — the stop without it,
+    with the failure added to ``reason``."""
     n = base.shape[0]
+    lower = limits.lower if limits is not None else None
+    upper = limits.upper if limits is not None else None
     if filter is not None:
         try:
-            q_next, qd, qdd = filter.update(base, np.zeros(n), independent=independent)
+            own = None
+            if lower is not None and upper is not None:
+                own = filter.synchronised_stop_passes(base, lower, upper)
+            q_next, qd, qdd = filter.update(base, np.zeros(n), independent=own)
             return q_next, qd, qdd, reason
         except RatectlError as err:  # the filter failed: brake without it
             reason = f"{reason}; smoothing failed while halting ({err})"
     amax = limits.amax if limits is not None else np.full(n, np.inf)
-    speed = np.maximum(np.abs(qd_prev) - amax * dt, 0.0)  # inf amax: 0 at once
-    qd = np.sign(qd_prev) * speed
+    qd = common_stop(base, qd_prev, dt, amax, lower, upper)
     q_next = base + qd * dt
     qdd = (qd - qd_prev) / dt
     return q_next, qd, qdd, reason
+
+
+def common_stop(base: np.ndarray, qd_prev: np.ndarray, dt: float, amax: np.ndarray,
+                lower: np.ndarray | None, upper: np.ndarray | None) -> np.ndarray:
+    """The joint velocities one period ``dt`` [s] into the halt without smoothing, from
+    ``qd_prev`` [rad/s or m/s] at ``base``: q̇_prev·max(1 − ρ·dt, 0), ρ = min amax_i/|q̇_prev,i|
+    over the joints that stop together, and sign(q̇_prev,i)·max(|q̇_prev,i| − amax_i·dt, 0)
+    for a joint whose share of that stop, |q̇_prev,i|·(1/(2ρ) + dt), is longer than its
+    room to the limit ahead of it (``lower`` / ``upper``; None: no position limits)."""
+    speed = np.abs(qd_prev)
+    moving = speed > 0.0
+    own = np.zeros(speed.shape, dtype=bool)
+    if lower is not None and upper is not None and moving.any():
+        rho = _common_rate(speed, amax, moving)
+        if rho < np.inf:
+            room = np.where(qd_prev > 0.0, upper - base, base - lower)
+            own = moving & (speed * (0.5 / rho + dt) > room)
+    rho = _common_rate(speed, amax, moving & ~own)
+    qd = qd_prev * max(1.0 - rho * dt, 0.0)
+    if own.any():
+        qd = np.where(own, np.sign(qd_prev) * np.maximum(speed - amax * dt, 0.0), qd)  # (inf amax: 0)
+    return qd
+
+
+def _common_rate(speed: np.ndarray, amax: np.ndarray, among: np.ndarray) -> float:
+    """ρ = min amax_i/|q̇_i| over the joints ``among`` [1/s] (inf when none, or when
+    none of them has an acceleration limit): the rate at which their common speed fraction
+    may fall."""
+    if not among.any():
+        return np.inf
+    return float(np.min(amax[among] / speed[among]))

@@ -97,6 +97,7 @@ class VelocityFilter:
         self._no_sync = [ruckig.Synchronization.No] * self.dof
         self._zeros = np.zeros(self.dof)
         self._half_inv_j = 0.5 / self.jmax
+        self._traj: Any = None  # Ruckig's whole trajectory, made on a halt's first use
         self.reset()
 
     @property
@@ -219,9 +220,36 @@ class VelocityFilter:
         self._v, self._a = v1, a1
         return q1, v1, a1
 
+    def synchronised_stop_passes(self, q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+        """The joints whose part of the time-synchronised stop from the filter's state at
+        ``q`` (every joint to rest together, Ruckig's whole trajectory) would run past a
+        position limit ``lower`` / ``upper`` (n,), or further past one it is already
+        beyond: a (n,) mask. A halt stops those joints on their own, each as fast as its
+        limits allow. Every joint when Ruckig finds no synchronised stop."""
+        self._inp.current_position = q.tolist()
+        self._set_relative(self._zeros, self._zeros, sync=True)
+        if self._traj is None:
+            self._traj = self._ruckig.Trajectory(self.dof)
+        try:
+            res = self._otg.calculate(self._inp, self._traj)
+        except (self._ruckig.RuckigError, ValueError):
+            res = None
+        if res not in self._ok:
+            return np.ones(self.dof, dtype=bool)
+        ext = self._traj.position_extrema
+        hi = np.array([e.max for e in ext])
+        lo = np.array([e.min for e in ext])
+        return (hi > np.maximum(upper, q)) | (lo < np.minimum(lower, q))
+
     def _calculate_relative(self, vt: np.ndarray, ta: np.ndarray, *, sync: bool,
                             still: np.ndarray | None = None):
-        """Ruckig's update in the frame of the reference line v_r(t) = vt + ta·(t − dt):
+        """Ruckig's update in the frame of the reference line (`_set_relative`)."""
+        self._set_relative(vt, ta, sync=sync, still=still)
+        return self._calculate()
+
+    def _set_relative(self, vt: np.ndarray, ta: np.ndarray, *, sync: bool,
+                      still: np.ndarray | None = None) -> None:
+        """Ruckig's input in the frame of the reference line v_r(t) = vt + ta·(t − dt):
         from e = q̇ − v_r(0), ė = q̈ − ta to rest, with ė within [−amax − ta, amax − ta];
         the joints time-synchronised or not (``sync``). Joints in ``still`` (a mask) are
         put at rest on their lines (their answer is not used: they stretch nothing)."""
@@ -239,7 +267,6 @@ class VelocityFilter:
         inp.current_acceleration = de.tolist()
         inp.max_acceleration = hi.tolist()
         inp.min_acceleration = lo.tolist()
-        return self._calculate()
 
     def _absolute(self, vt: np.ndarray, ta: np.ndarray):
         """``(q, q̇, q̈)`` at the end of the period from Ruckig's answer in the reference's

@@ -1,5 +1,6 @@
-"""Limits that hold under faults: one-sided position limits, safe halts per joint, halts on
-a non-finite measurement, acceleration feed-forward at the velocity limit."""
+"""Limits that hold under faults: one-sided position limits, safe halts that keep the joint
+path and a joint braking for its limit, halts on a non-finite measurement, acceleration
+feed-forward at the velocity limit."""
 
 import math
 import os
@@ -76,11 +77,67 @@ def test_a_halt_on_a_nan_measurement_keeps_the_commanded_stream_continuous(ur5e,
     assert cmd.status == "halted" and np.all(np.abs(cmd.qd) < 1e-9)
 
 
-def test_a_smoothed_halt_mid_approach_stops_each_joint_time_optimally():
+def _halt_mid_approach(arm, smoothing: bool, at: int = 300):
+    """A servo to a 17 cm step with a 30° turn from Q_REG, a NaN measurement at period
+    ``at`` (a latched halt): the commanded (q, q̇) from the period before the halt on."""
+    from scipy.spatial.transform import Rotation
+
+    T0 = arm.fk(Q_REG)
+    target = T0.copy()
+    target[:3, 3] += [0.12, -0.08, 0.1]
+    turn = Rotation.from_rotvec(math.radians(30) * np.array([0.6, 0.0, 0.8])).as_matrix()
+    target[:3, :3] = turn @ T0[:3, :3]
+    ctrl = rc.ResolvedRateController(arm, smoothing=smoothing)
+    q, qs, qds = Q_REG.copy(), [], []
+    for k in range(at + 600):
+        meas = q.copy()
+        if k == at:
+            meas[2] = math.nan
+        cmd = ctrl.step(meas, target=target, dt=1e-3)
+        q = cmd.q_next
+        qs.append(q)
+        qds.append(cmd.qd)
+    assert cmd.status == "halted" and np.all(np.abs(cmd.qd) < 1e-9)
+    return np.array(qs[at - 1:]), np.array(qds[at - 1:])
+
+
+def test_a_halt_keeps_the_joint_path_and_stops_in_the_slowest_joints_time(ur5e):
+    """Without smoothing the joints slow down together: every commanded q̇ of the halt is
+    q̇ at the halt scaled by one factor (the joint path goes on straight; each joint on its
+    own bent it by 6.5 mrad and the tool 0.65 mm off its line), every joint comes to rest in
+    the same period, no later than the slowest joint's own stop at amax, and no joint
+    changes speed by more than amax·dt."""
+    qs, qds = _halt_mid_approach(ur5e, smoothing=False)
+    v0 = qds[0]
+    assert np.max(np.abs(v0)) > 0.5  # moving fast when the halt came
+    scale = qds @ v0 / (v0 @ v0)
+    assert np.allclose(qds, scale[:, None] * v0, rtol=0.0, atol=1e-12)
+    assert np.all(np.diff(scale) <= 0.0)
+    at_rest = np.all(np.abs(qds) == 0.0, axis=1)
+    first = int(np.argmax(at_rest))
+    assert np.all(at_rest[first:])
+    assert first <= math.ceil(np.max(np.abs(v0) / (ur5e.amax * 1e-3))) + 1
+    assert np.max(np.abs(np.diff(qds, axis=0)) / (ur5e.amax * 1e-3)) <= 1.0 + 1e-9
+
+
+def test_a_smoothed_halt_stops_the_joints_together_near_their_path(ur5e):
+    """With smoothing the joints stop on the filter's time-synchronised jerk-limited stop:
+    the joint path of the stop stays within 3 % of its length of its chord (each joint on
+    its own: 10 %), within amax."""
+    qs, qds = _halt_mid_approach(ur5e, smoothing=True)
+    chord = qs[-1] - qs[0]
+    u = chord / np.linalg.norm(chord)
+    rel = qs - qs[0]
+    off = np.linalg.norm(rel - np.outer(rel @ u, u), axis=1)
+    assert np.max(off) <= 0.03 * np.linalg.norm(chord)
+    assert np.max(np.abs(np.diff(qds, axis=0)) / (ur5e.amax * 1e-3)) <= 1.0 + 1e-9
+
+
+def test_a_smoothed_halt_mid_approach_ramps_out_and_comes_to_rest():
     """URDF arm (no amax in the file, given with_limits), servoing to a step target with
-    smoothing; a NaN measurement mid-approach. Each joint stops on its own jerk-limited stop:
-    its speed grows at most by a²/(2·jmax) while its acceleration ramps out (never stretched
-    to the other joints), |q̈| ≤ amax, and the arm comes to rest."""
+    smoothing; a NaN measurement mid-approach. The joints stop together on the filter's
+    jerk-limited stop: a joint's speed grows at most by a²/(2·jmax) while its acceleration
+    ramps out, |q̈| ≤ amax, and the arm comes to rest."""
     path = os.path.join(os.path.dirname(__file__), "..", "data", "irb_like.urdf")
     arm = rc.Chain.from_urdf(path).with_limits(amax=10.0, jmax=100.0)
     q0 = np.array([0.2, 0.3, -0.2, 0.1, 0.6, 0.1])

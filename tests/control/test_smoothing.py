@@ -147,7 +147,8 @@ def test_velocity_filter_recovers_when_ruckig_cannot_synchronise():
 
 
 class _FailingOTG:
-    """Stands in for ruckig.Ruckig: every update raises, as the binding does on some inputs."""
+    """Stands in for ruckig.Ruckig: every update and calculation raises, as the binding does
+    on some inputs."""
 
     def __init__(self, real):
         self.delta_time = real.delta_time
@@ -156,6 +157,9 @@ class _FailingOTG:
         import ruckig
 
         raise ruckig.RuckigError("[ruckig] error in step 2 (test double)")
+
+    def calculate(self, inp, trajectory):
+        return self.update(inp, None)
 
 
 def test_a_failing_filter_raises_a_ratectl_error_and_the_controller_halts():
