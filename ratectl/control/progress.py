@@ -54,7 +54,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..model.limits import Limits, braking_speed, braking_speed_any_dt_scalar, braking_speed_scalar
+from ..model.limits import Limits, braking_speed_any_dt_scalar, braking_speed_scalar
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -476,9 +476,17 @@ class ProgressLimits:
         # like 1/σ_min), and the bounds on s̈ and s⃛ that much smaller; it runs below
         # _FAR_ABOVE × the stop only (above, the slope at q bounds a lost direction, and a
         # block is farther than a stop from there needs: the look-ahead sees it on the way)
+        # — and at least one joint step `_BEND_STEP` (w at q), even for a motion at rest: an
+        # arm that stopped where the direction's share crosses `_LOST` below the stop reads
+        # a share just under it at q, rounding either way; only a look at the way ahead
+        # keeps that block where it is (else the progress creeps on, meets it again and
+        # stops, and the status flickers between the block and moving)
         reach = max(sigma / self.stop_sigma, 1.0)
         near = sigma <= _FAR_ABOVE * self.stop_sigma
-        D = ahead(caps.accel / reach, caps.jerk / reach) if ahead is not None and room > 0.0 and near else 0.0
+        D = 0.0
+        if ahead is not None and room > 0.0 and near:
+            w_inf = max(abs(x) for x in w.tolist())
+            D = max(ahead(caps.accel / reach, caps.jerk / reach), _BEND_STEP / w_inf)
         peak = bend_peak
         block_bounds = None
         if D > ds:
@@ -524,7 +532,7 @@ class ProgressLimits:
                                 f"{sigma:.3g}; the motion stops at {self.stop_sigma:.3g})")
         # the speed bound (a jog): the jerk-limited stop within that room at the acceleration
         # bound (a stop then planned, `Progress`, plans it at the block's bounds)
-        bound = float(braking_speed(room, caps.accel, min(caps.jerk, _JERK_BIG))) if room > 0.0 else 0.0
+        bound = braking_speed_scalar(room, caps.accel, min(caps.jerk, _JERK_BIG)) if room > 0.0 else 0.0
         if bound < caps.speed:
             caps.speed, caps.binding, caps.joint, caps.reason = bound, "singularity", -1, reason
             caps.blocked_by = "singularity" if bound <= 0.0 else ""

@@ -93,6 +93,7 @@ class Servo:
         """No approach, and nothing known about any target."""
         self.forget()
         self._unreachable: np.ndarray | None = None  # the target last found out of reach
+        self._unreachable_block = ""  # the block it was found at ("" for a best effort)
 
     def step(self, cyc: Cycle, q, dt, target) -> Command | None:
         """The straight approach (`StraightApproach`): fk and J at q, the segment (a new one
@@ -323,10 +324,14 @@ class Servo:
         J q̇ within K·tolerance (linear and angular; what the proportional law asks at the
         tolerance). Unreachable: outside the tolerances with J q̇, and J (q̇ + q̈/K) one
         time constant ahead, below 1 % of that: the arm has stopped short, no motion within
-        the limits lowers the error from here."""
+        the limits lowers the error from here. Where the line is blocked at the arm
+        (``cyc.blocked``), unreachable with J q̇ within K·tolerance, as for reached. Once said
+        for a target, it holds while J q̇ stays within the bound it was said at (K·tolerance
+        at a block, 10 % of it at a best effort)."""
         within = cyc.ep <= self.position_tolerance and cyc.eo <= self.orientation_tolerance
         ap = self._straight
-        if not (within or cyc.blocked) and (
+        said = self._unreachable is not None and _same(target, self._unreachable)
+        if not (within or cyc.blocked or said) and (
                 self._joint_line.target is not None  # on its way in joint space (see below)
                 or (not self._pursuit and ap.target is not None and ap.s < ap.L and ap.sdd > 0.0)):
             return  # (neither status, whatever the twist: not computed)
@@ -339,28 +344,34 @@ class Servo:
         if within:
             cyc.flags.insert(0, "target-reached")
             return
-        if cyc.blocked:  # the straight line is blocked where the arm stands
+        block = cyc.blocked or (self._unreachable_block if said else "")
+        if block:  # the straight line is blocked where the arm stands (or stood, this target)
+            if not said:
+                self._unreachable, self._unreachable_block = target.copy(), block
             cyc.flags.insert(0, "target-unreachable")
             # (the distance left, not a share of the line: a line restarted from where the arm
             # is, held off it or after the target moved, begins anew at 0 %)
             cyc.reasons.insert(0, f"stopped {cyc.ep * 1e3:.3g} mm / {math.degrees(cyc.eo):.3g}° from the "
-                               f"target: the straight line to it is blocked: {cyc.blocked}")
+                               f"target: the straight line to it is blocked: {block}")
             return
         # (here the arm is on its line or at its end: not in joint space, which is on its way,
         # taken this period where the line is blocked; nor on a line whose progress speeds up,
-        # from rest its first periods are slow: on its way too)
+        # from rest its first periods are slow: on its way too, unless the arm was found
+        # stopped short of this target already)
         # stopped short: below 1 % of that, now and one time constant ahead (an arm that
         # creeps toward a singular target, damped, is still on its way); once said for this
-        # target, below 10 % (the last settling does not flicker back to "regular")
-        said = self._unreachable is not None and _same(target, self._unreachable)
+        # target, below 10 % now (the last settling does not flicker back to "regular", nor
+        # does a joint held at its limit whose command ticks between rest and a few µrad/s,
+        # an acceleration of mrad/s² that one time constant ahead looks like a start)
         vtol *= 0.1 if said else 0.01
         wtol *= 0.1 if said else 0.01
-        a = cyc.J.dot(cyc.qd + cyc.qdd * self._inv_kmax).tolist()
-        if not (math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol
-                and math.hypot(a[0], a[1], a[2]) <= vtol and math.hypot(a[3], a[4], a[5]) <= wtol):
+        if not (math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol):
             return
         if not said:
-            self._unreachable = target.copy()
+            a = cyc.J.dot(cyc.qd + cyc.qdd * self._inv_kmax).tolist()
+            if not (math.hypot(a[0], a[1], a[2]) <= vtol and math.hypot(a[3], a[4], a[5]) <= wtol):
+                return
+            self._unreachable, self._unreachable_block = target.copy(), ""
         cyc.flags.insert(0, "target-unreachable")
         cyc.reasons.insert(0, f"stopped at a best effort {cyc.ep * 1e3:.3g} mm / "
                            f"{math.degrees(cyc.eo):.3g}° from the target: no motion within the limits "

@@ -513,3 +513,48 @@ def test_a_line_blocked_at_a_peak_of_sigma_min_says_so_once_and_keeps_it():
     after = set(statuses[first:])
     assert after == {"target-unreachable"}, (first, after)
     assert "singularity" in cmd.reason, cmd.reason
+
+
+# Two smoothed servo runs of a seeded trial (random start and target, default solver,
+# dt 1 ms) on the built-in arms, each stopped short of its target.
+_STOPPED_SHORT = {
+    # the line heads into an elbow singularity; the arm stops where the direction's share
+    # of |J⁺d|² in the weakest direction rises through 0.2 below stop_sigma, and reads
+    # that share at 0.19999…, then 0.20000…, as it stands there
+    "ur5e-lost-share": ("ur5e", [0.1437805140844372, 4.521338734955442, -0.0007857873995341103,
+                                 -5.76788509748027, -5.150344930007709, -0.4810995165751013],
+                        [[-0.6292286702335106, 0.7476981972272401, 0.21217607409720654, 0.06795019497674666],
+                         [-0.7723198239105571, -0.6321186892332179, -0.06283352860411617,
+                          -0.11881160890559712],
+                         [0.08713994578225237, -0.20340444583443504, 0.9752093422767506, 1.0471724028032372],
+                         [0.0, 0.0, 0.0, 1.0]]),
+    # joint 2 stops at its upper limit; the lagging smoothed command ticks it between rest
+    # and a few µrad/s, and the progress creeps into the limit's room by 1e-9 per period
+    "puma560-limit": ("puma560", [-1.6957971204625433, 3.612308443652005, -1.5242580385548785,
+                                  1.3427634984861236, -1.2844377218309466, -4.046843974925836],
+                      [[0.022373064057864753, -0.23748510690813274, 0.9711334975179755, -0.04275716054743692],
+                       [0.11456880779129314, 0.9655862580169859, 0.2334891145429188, 0.6332959960531931],
+                       [-0.9931633472324402, 0.10603774010034028, 0.04881150877066048, -0.3168625942280494],
+                       [0.0, 0.0, 0.0, 1.0]]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(_STOPPED_SHORT))
+def test_a_smoothed_servo_stopped_short_says_target_unreachable_once_and_keeps_it(case):
+    """Once ``target-unreachable`` is said for a target, the status stays while the arm
+    stands there: it used to flicker back to ``damped`` (UR5e: the share test read at the
+    block itself) or ``joint-limit`` (PUMA: a joint held at its limit, whose µrad/s ticks
+    looked like a start one time constant ahead) every few periods for seconds."""
+    name, q0, target = _STOPPED_SHORT[case]
+    arm = getattr(rc.robots, name)()
+    ctrl = rc.ResolvedRateController(arm, smoothing=True)
+    q = np.array(q0)
+    statuses = []
+    for _ in range(3000):
+        cmd = ctrl.step(q, target=np.array(target), dt=1e-3)
+        q = cmd.q_next
+        statuses.append(cmd.status)
+    assert "target-unreachable" in statuses, set(statuses)
+    first = statuses.index("target-unreachable")
+    after = set(statuses[first:])
+    assert after == {"target-unreachable"}, (first, after)
