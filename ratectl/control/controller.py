@@ -83,7 +83,7 @@ class ResolvedRateController:
         smoothing: ``False``; ``True`` (a Ruckig `VelocityFilter` with the
             chain's vmax, amax, jmax); or a ``VelocityFilter``.
         position_tolerance [m], orientation_tolerance [rad]: "target reached" thresholds.
-        timeout: a target whose ``stamp`` is older than this [s] is stale (halt).
+        timeout: a target or twist whose ``stamp`` is older than this [s] is stale (halt).
         singular_sigma: below this σ_min a velocity-limited or failed solve is reported as
             "singular" rather than "velocity-scaled".
         stop_sigma: the σ_min at which a jog or an approach stops before a singularity
@@ -217,8 +217,9 @@ class ResolvedRateController:
             qdd_ff: joint-acceleration feed-forward (n,), used by the smoother only (Ruckig's
                 target acceleration, clipped to ±amax): with it the jerk-limited filter tracks a
                 planned motion without lag.
-            stamp: when the target was produced, on the controller clock ``ctrl.time`` [s];
-                older than ``timeout`` → halt (stale target).
+            stamp: when the target (or, jogging, the twist) was produced, on the controller
+                clock ``ctrl.time`` [s]; older than ``timeout`` → halt (stale target or twist:
+                a teleoperator's last twist is not followed on once its stream stops).
             frame: the axes of ``twist``: ``"base"`` (default) or ``"tool"`` (the tool frame's
                 axes at the measured q; the twist is still taken at the tool point).
         """

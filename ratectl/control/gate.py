@@ -3,8 +3,9 @@
 `Gate.validate` checks shapes and types (a wrong shape is a programming error: `InputError`
 at once); `Gate.check` checks values and says when the cycle must halt instead: a
 non-finite q, target, twist, feed-forward or dt latches the halt (until ``reset``); a
-target that is not a rigid pose (scaled, sheared, mirrored), older than ``timeout`` or
-stamped ahead of the controller clock halts this cycle only. The gate owns that state:
+target that is not a rigid pose (scaled, sheared, mirrored), or a target or twist whose
+``stamp`` is older than ``timeout`` or ahead of the controller clock, halts this cycle
+only. The gate owns that state:
 the latched reason, the last target found rigid (checked again only when it changes) and
 the last good period (the period a halt on a bad dt brakes over).
 """
@@ -136,11 +137,12 @@ class Gate:
                 if defect is not None:  # a scaled, sheared or mirrored pose: no motion toward it
                     return f"target {defect}", dt
             self._target_ok = rows
-        if stamp is not None and target is not None:
+        if stamp is not None:  # the age of what the cycle is given: a target, or a twist to jog
+            what = "target" if target is not None else "twist" if twist is not None else "command"
             age = now - stamp
             if not age <= self.timeout:
-                return f"stale target: {age:.3g} s old > timeout {self.timeout:.3g} s", dt
+                return f"stale {what}: {age:.3g} s old > timeout {self.timeout:.3g} s", dt
             if age < -self.timeout:  # from the future: the producer's clock is not this controller's
-                return (f"target stamped {-age:.3g} s ahead of the controller clock ctrl.time (more "
+                return (f"{what} stamped {-age:.3g} s ahead of the controller clock ctrl.time (more "
                         f"than timeout {self.timeout:.3g} s): stamp it on ctrl.time", dt)
         return None

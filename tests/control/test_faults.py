@@ -197,3 +197,33 @@ def test_a_stamp_must_be_a_time_and_a_target_from_the_future_halts():
     assert cmd.status != "halted"
     cmd = ctrl.step(q, target=T, dt=1e-3, stamp=float("nan"))
     assert cmd.status == "halted" and "stale" in cmd.reason
+
+
+@pytest.mark.parametrize("smoothing", [False, True], ids=["plain", "smooth"])
+def test_a_jog_on_a_stale_twist_halts(smoothing):
+    """A teleoperator's twist stamped on ctrl.time: while fresh the arm jogs; once the
+    stream stops (the same twist, its stamp older than the timeout) the cycle halts and the
+    arm comes to rest — the stamp used to be read for targets only, and the arm jogged on
+    the last twist (230 mm in a second); a fresh twist resumes."""
+    arm = rc.robots.ur5e()
+    ctrl = rc.ResolvedRateController(arm, smoothing=smoothing)
+    q = Q_REG.copy()
+    xi = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
+    dt = 1e-3
+    for _ in range(200):
+        cmd = ctrl.step(q, twist=xi, stamp=ctrl.time, dt=dt)
+        q = cmd.q_next
+    assert cmd.status != "halted" and np.max(np.abs(cmd.qd)) > 0.05
+    stamp = ctrl.time  # the stream stops: the last twist keeps its stamp
+    p_stale = arm.fk(q)[:3, 3]
+    statuses = []
+    for _ in range(600):
+        cmd = ctrl.step(q, twist=xi, stamp=stamp, dt=dt)
+        q = cmd.q_next
+        statuses.append(cmd.status)
+    assert statuses[-1] == "halted" and "stale twist" in cmd.reason, cmd.reason
+    assert np.all(np.abs(cmd.qd) < 1e-9)
+    # it ran on for one timeout, then braked: well short of 600 ms of jogging at 0.1 m/s
+    assert np.linalg.norm(arm.fk(q)[:3, 3] - p_stale) < 0.03
+    cmd = ctrl.step(q, twist=xi, stamp=ctrl.time, dt=dt)  # fresh again: it jogs
+    assert cmd.status != "halted"
