@@ -88,6 +88,11 @@ class Progress:
         self.end_accel = math.inf  # the acceleration bound at the end of the line, when known
         self.end_speed = 0.0  # the speed at which the progress arrives at L (a target that moves)
 
+    def _extend(self, by: float) -> bool:
+        """Run the segment on past its end by ``by`` [progress units], on the same line:
+        whether it could (a progress without a line to extend cannot)."""
+        return False
+
     def stopping_progress(self, dt: float, accel: float | None = None, jerk: float | None = None) -> float:
         """The progress this motion needs to come to rest [progress units]: one period at its
         speed, then the jerk-limited stop the last period planned (its nominal braking, not a
@@ -133,7 +138,8 @@ class Progress:
         # singularity by several times); where the stop from the present
         # state no longer fits, the plan brakes just as hard as needed to stop at L, up to
         # twice the bound (the whole of amax at η = 1/2; the jerk stays within its share), instead
-        # of passing the target and coming back. A stop once planned harder keeps its level
+        # of passing the target and coming back; only a stop that does not fit even so runs on
+        # past the target, on the line (`_extend`). A stop once planned harder keeps its level
         # (planned again at the nominal level, the time-optimal plan would brake later each
         # period and ratchet up to the reserve).
         nominal = _PLANNED * min(amax, self.end_accel, block_accel)
@@ -151,6 +157,15 @@ class Progress:
                 # past it (σ_min stays above 0 there), never as a jump to rest, which no
                 # jerk-limited arm follows (its joints would carry on off the direction)
                 overrun = self.blocked and caps.room_by == "singularity"
+                if not self.blocked:
+                    # too late to rest on the target (one that stopped, or a switch close
+                    # ahead): the segment runs on past it on the same line, far enough for
+                    # the stop at the whole acceleration bound, if nothing blocks the way
+                    # there; a new segment then comes back (`past_end`)
+                    past = _stop(self.sd, self.sdd, hi, jmax) * (1.0 + 1e-6) - x
+                    if past <= caps.room - max(lead, 0.0) - x and self._extend(past):
+                        end = x = self.L - self.s
+                        brake = hi
             else:
                 for _ in range(12):
                     mid = 0.5 * (lo + hi)
@@ -217,6 +232,7 @@ class StraightApproach(Progress):
     def reset(self) -> None:
         """Forget the segment and the progress (the next target starts a new approach)."""
         self.target: np.ndarray | None = None
+        self.past_end = False  # the segment runs on past the target (`_extend`)
         self._t: list[list[float]] = []  # the target's rows as floats (its last estimate of motion)
         # the segment in plain floats (a target that moves starts a segment every period)
         self._p0 = [0.0, 0.0, 0.0]
@@ -230,6 +246,20 @@ class StraightApproach(Progress):
         self._d = [0.0] * 6
         self.w_prev: np.ndarray | None = None
         self.restart()
+
+    def _extend(self, by: float) -> bool:
+        """The segment runs on past its target by ``by`` > 0 [progress units] on the same
+        line, T(s) for s up to L + by (Δp and r scaled, d kept); `past_end` says so until
+        a new segment begins."""
+        if not (self.L > 0.0 and by > 0.0):
+            return False
+        f = (self.L + by) / self.L
+        self._dp = [x * f for x in self._dp]
+        self._r = [x * f for x in self._r]
+        self.L += by
+        self._pose_at = None
+        self.past_end = True
+        return True
 
     def weighted_dot(self, a: np.ndarray, b: np.ndarray) -> float:
         """⟨a, b⟩_W = a_v·b_v + ℓ² a_ω·b_ω for two twists (6,)."""
@@ -329,6 +359,7 @@ class StraightApproach(Progress):
         if t is None:
             t = target.tolist()
         self._t = t
+        self.past_end = False  # the segment runs on past the target (`_extend`)
         self._p0, self._R0 = p0, R0
         dp = self._dp = [t[0][3] - p0[0], t[1][3] - p0[1], t[2][3] - p0[2]]
         x, y, z, _ = rotation_error_rows(t, R0)

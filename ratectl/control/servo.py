@@ -123,6 +123,11 @@ class Servo:
                 ap.retarget_from_reference(target, dt=dt, rows=t)
         else:
             ap.hold_target()
+            if ap.past_end and ap.L - ap.s <= AT_BLOCK and ap.sd <= AT_BLOCK:
+                # at rest past the target on the line's run-on (a stop too late to rest on
+                # it; within AT_BLOCK [m, m/s], as a jerk-limited stop ends): back along the
+                # same line, from the reference at rest
+                ap.retarget_from_reference(target, rows=t)
         e = cyc.e = np.zeros(6)
         cyc.ep, cyc.eo = pose_error_rows(e, t, Tl := T.tolist())  # (the rows of both poses, once)
         e_ref = np.zeros(6)
