@@ -211,7 +211,9 @@ class ResolvedRateController:
             twist: tool twist ξ = [v; ω] (6,) [m/s; rad/s] at the tool point, or None: alone (no
                 target, no ``qd_ff``), the twist to jog along (`Jog`: followed in its own
                 direction or slowed down along it, never rotated); with a target, a feed-forward.
-            dt: control period [s].
+            dt: control period [s]; when it varies, the time since the previous step (the
+                difference of the robot's stamps, as ``rc.run`` passes it): a moving
+                target's velocity is estimated as its change over dt.
             qd_ff: joint-velocity feed-forward (n,) added to the resolved rate (e.g. the
                 governor's planned q̇); ``twist`` is then the *extra* twist to resolve.
             qdd_ff: joint-acceleration feed-forward (n,), used by the smoother only (Ruckig's
