@@ -39,6 +39,8 @@ if TYPE_CHECKING:
 
 __all__ = ["Jog", "JogStage"]
 
+_TURN_SMALL = 0.05  # a new twist within this fraction of its norm of the last one turns it
+
 
 class Jog:
     """The fraction c ∈ [0, 1] (down to −1 on a smoothed twist that turns back) of the
@@ -78,7 +80,13 @@ class Jog:
             # (smoothed) ċ likewise, where c is not clipped: a twist that turns a little every
             # period keeps its jerk-limited progress going
             self.cd = self.cd * ratio if lowest < c < 1.0 else 0.0
-            self.w_prev = None
+            # and its w = J⁺ξ: ẇ then includes the twist's own turn, the acceleration of the
+            # reference c·w (a twist in tool axes turns with the tool every period; without
+            # ẇ the smoothed filter lagged it and the tool slid across the twist); a twist
+            # that jumps starts its w anew
+            change = twist - prev
+            if not float(change.dot(change)) <= _TURN_SMALL * _TURN_SMALL * nn:
+                self.w_prev = None
         self.twist = twist.copy()
 
     @property

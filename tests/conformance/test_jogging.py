@@ -231,3 +231,34 @@ def test_reasons_name_joints_by_the_chains_joint_names():
     assert not indexed, f"reasons list joints by index: {sorted(indexed)[:3]}"
     assert any(chain.joint_names[0] in r for r in reasons), (
         f"no reason names {chain.joint_names[0]!r}: {sorted(reasons)[:5]}")
+
+
+def test_a_smoothed_jog_in_tool_axes_follows_the_same_line_as_in_base_axes():
+    """UR5e, smoothed, a 0.15 m/s translation out toward the workspace boundary, held 1.5 s
+    (accelerating, cruising, stopping before the elbow singularity), given once in base
+    axes and once in the tool axes at the start (the same line, the tool does not turn):
+    the two tool paths agree within 0.05 mm and the tool turns less than 0.01°. The
+    tool-axes twist turns with the tool every period by rounding; the jog then dropped
+    ẇ from the filter's reference, the tool slid up to 4.9 mm across the twist and
+    turned, and the turn rotated the commanded direction further."""
+    arm = rc.robots.ur5e()
+    q0 = np.array([0.3, -1.3, 1.6, -1.9, -1.2, 0.2])
+    T0 = arm.fk(q0)
+    radial = np.array([T0[0, 3], T0[1, 3], 0.0])
+    xi_base = np.r_[0.15 * radial / np.linalg.norm(radial), 0.0, 0.0, 0.0]
+    R0 = T0[:3, :3]
+    xi_tool = np.r_[R0.T @ xi_base[:3], 0.0, 0.0, 0.0]
+    paths, turns = [], []
+    for frame, xi in (("base", xi_base), ("tool", xi_tool)):
+        ctrl = rc.ResolvedRateController(arm, smoothing=True)
+        q = q0.copy()
+        p = []
+        for _ in range(1500):
+            cmd = ctrl.step(q, twist=xi, frame=frame, dt=1e-3)
+            q = cmd.q_next
+            p.append(arm.fk(q)[:3, 3])
+        paths.append(np.array(p))
+        turns.append(math.degrees(rotation_angle(arm.fk(q)[:3, :3] @ R0.T)))
+    assert np.linalg.norm(paths[1][-1] - paths[1][0]) > 0.1  # it moved
+    assert np.max(np.linalg.norm(paths[0] - paths[1], axis=1)) <= 0.05e-3
+    assert max(turns) <= 0.01, turns
