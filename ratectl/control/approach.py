@@ -93,6 +93,31 @@ class Progress:
         whether it could (a progress without a line to extend cannot)."""
         return False
 
+    def _late_stop(self, brake: float, x: float, amax: float, jmax: float, caps: ProgressCaps,
+                   lead: float) -> tuple[float, bool, bool]:
+        """A stop from the present state that no longer fits in ``x`` at ``brake``:
+        ``(brake, overrun, extended)``. It brakes just as hard as needed, up to `_URGENT` × ``amax``.
+        Where even that does not fit:
+
+        * before a singularity's block (its σ_min of the stop, or the peak of σ_min below
+          it), ``overrun``: the stop runs on along the direction, a little past it (σ_min
+          stays above 0 there), never as a jump to rest, which no jerk-limited arm follows
+          (its joints would carry on off the direction);
+        * at the target (one that stopped, or a switch close ahead), the segment runs on
+          past it on the same line (`_extend`, ``extended``), far enough for the stop at
+          that bound, if nothing blocks the way there; a new segment then comes back."""
+        lo, hi = brake, max(_URGENT * amax, brake)
+        if _stop(self.sd, self.sdd, hi, jmax) <= x:
+            for _ in range(12):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax) > x else (lo, mid)
+            return hi, False, False
+        if not self.blocked:
+            past = _stop(self.sd, self.sdd, hi, jmax) * (1.0 + 1e-6) - x
+            if past <= caps.room - max(lead, 0.0) - x and self._extend(past):
+                return hi, False, True
+        return hi, self.blocked and caps.room_by == "singularity", False
+
     def stopping_progress(self, dt: float, accel: float | None = None, jerk: float | None = None) -> float:
         """The progress this motion needs to come to rest [progress units]: one period at its
         speed, then the jerk-limited stop the last period planned (its nominal braking, not a
@@ -149,28 +174,9 @@ class Progress:
         overrun = False
         if v_end <= 0.0 and self.sd > 0.0 and _stop_bound(self.sd, self.sdd, brake, jmax) > x \
                 and _stop(self.sd, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
-            lo, hi = brake, max(_URGENT * amax, brake)
-            if _stop(self.sd, self.sdd, hi, jmax) > x:
-                brake = hi
-                # too late to stop before a singularity's block (its σ_min of the stop, or the
-                # peak of σ_min below it): the stop runs on along the direction, a little
-                # past it (σ_min stays above 0 there), never as a jump to rest, which no
-                # jerk-limited arm follows (its joints would carry on off the direction)
-                overrun = self.blocked and caps.room_by == "singularity"
-                if not self.blocked:
-                    # too late to rest on the target (one that stopped, or a switch close
-                    # ahead): the segment runs on past it on the same line, far enough for
-                    # the stop at the whole acceleration bound, if nothing blocks the way
-                    # there; a new segment then comes back (`past_end`)
-                    past = _stop(self.sd, self.sdd, hi, jmax) * (1.0 + 1e-6) - x
-                    if past <= caps.room - max(lead, 0.0) - x and self._extend(past):
-                        end = x = self.L - self.s
-                        brake = hi
-            else:
-                for _ in range(12):
-                    mid = 0.5 * (lo + hi)
-                    lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax) > x else (lo, mid)
-                brake = hi
+            brake, overrun, extended = self._late_stop(brake, x, amax, jmax, caps, lead)
+            if extended:  # (the segment now runs on past its target)
+                end = x = self.L - self.s
         self._brake, self._nominal, self._jerk = brake, nominal, jmax
         if overrun:
             stopper = self._stopper

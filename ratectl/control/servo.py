@@ -114,20 +114,8 @@ class Servo:
                 return self._joint_servo(cyc, q, dt, target, T, J)
             jl.reset()  # a new target: a straight line again, from where the arm is
             ap.reset()
-        if not ap.same_target(t := target.tolist()) or self._pursuit:
-            if ap.target is None:  # a first target: from the measured pose and the arm's motion
-                ap.retarget(target, T, J.dot(self._m.qd), J.dot(self._m.qdd))
-            elif self._pursuit:  # from the measured pose, the progress's own motion carried on
-                ap.retarget(target, T, ap.sd * ap.d, ap.sdd * ap.d)
-            else:  # a new target: from the reference, which goes on without a jump
-                ap.retarget_from_reference(target, dt=dt, rows=t)
-        else:
-            ap.hold_target()
-            if ap.past_end and ap.L - ap.s <= AT_BLOCK and ap.sd <= AT_BLOCK:
-                # at rest past the target on the line's run-on (a stop too late to rest on
-                # it; within AT_BLOCK [m, m/s], as a jerk-limited stop ends): back along the
-                # same line, from the reference at rest
-                ap.retarget_from_reference(target, rows=t)
+        t = target.tolist()
+        self._segment(ap, target, t, T, J, dt)
         e = cyc.e = np.zeros(6)
         cyc.ep, cyc.eo = pose_error_rows(e, t, Tl := T.tolist())  # (the rows of both poses, once)
         e_ref = np.zeros(6)
@@ -205,6 +193,25 @@ class Servo:
                     caps.binding = ""  # (those bounds are the room ahead, which is not the stop)
                 self._progress.flags(cyc, q, caps, moving, ap.sd >= caps.free_speed * (1.0 - 1e-9))
         return None
+
+    def _segment(self, ap: StraightApproach, target, t: list[list[float]], T, J, dt) -> None:
+        """The segment of this period: a first target's from the measured pose ``T`` and the
+        arm's motion; a new target's from the reference, which goes on without a jump (an
+        arm of fewer than 6 joints: from the measured pose every period); the same target's
+        segment kept, or, at rest on the run-on past it (a stop too late to rest on it, within
+        `AT_BLOCK` [m, m/s], as a jerk-limited stop ends), a new one back along the same
+        line. ``t``: the target's rows as floats."""
+        if not ap.same_target(t) or self._pursuit:
+            if ap.target is None:
+                ap.retarget(target, T, J.dot(self._m.qd), J.dot(self._m.qdd))
+            elif self._pursuit:  # (the progress's own motion carried on)
+                ap.retarget(target, T, ap.sd * ap.d, ap.sdd * ap.d)
+            else:
+                ap.retarget_from_reference(target, dt=dt, rows=t)
+            return
+        ap.hold_target()
+        if ap.past_end and ap.L - ap.s <= AT_BLOCK and ap.sd <= AT_BLOCK:
+            ap.retarget_from_reference(target, rows=t)
 
     def _direction_twist(self, cyc: Cycle, q, dt, J, d) -> DirectionTwist | Command:
         """The line's direction w and the feedback c = solver(J, ξ) for ξ = ``cyc.xi``, on the
