@@ -502,9 +502,15 @@ def test_a_line_blocked_at_a_peak_of_sigma_min_says_so_once_and_keeps_it():
                        [-0.9921431153711137, -0.09574335636885212, 0.08053103956194876, -0.31705675976564607],
                        [0.10705866692788535, -0.9827928544647097, 0.15052125115322507, 1.163417058316469],
                        [0.0, 0.0, 0.0, 1.0]])
-    ctrl = rc.ResolvedRateController(arm)
+    cmd = _says_unreachable_once_and_keeps_it(rc.ResolvedRateController(arm), q, target, periods=2500)
+    assert "singularity" in cmd.reason, cmd.reason
+
+
+def _says_unreachable_once_and_keeps_it(ctrl, q, target, *, periods: int):
+    """Servo ``ctrl`` from ``q`` to ``target`` for ``periods`` of 1 ms: it says
+    ``target-unreachable`` and, once it has, no other status; the last command."""
     statuses = []
-    for _ in range(2500):
+    for _ in range(periods):
         cmd = ctrl.step(q, target=target, dt=1e-3)
         q = cmd.q_next
         statuses.append(cmd.status)
@@ -512,7 +518,7 @@ def test_a_line_blocked_at_a_peak_of_sigma_min_says_so_once_and_keeps_it():
     first = statuses.index("target-unreachable")
     after = set(statuses[first:])
     assert after == {"target-unreachable"}, (first, after)
-    assert "singularity" in cmd.reason, cmd.reason
+    return cmd
 
 
 # Two smoothed servo runs of a seeded trial (random start and target, default solver,
@@ -547,14 +553,5 @@ def test_a_smoothed_servo_stopped_short_says_target_unreachable_once_and_keeps_i
     looked like a start one time constant ahead) every few periods for seconds."""
     name, q0, target = _STOPPED_SHORT[case]
     arm = getattr(rc.robots, name)()
-    ctrl = rc.ResolvedRateController(arm, smoothing=True)
-    q = np.array(q0)
-    statuses = []
-    for _ in range(3000):
-        cmd = ctrl.step(q, target=np.array(target), dt=1e-3)
-        q = cmd.q_next
-        statuses.append(cmd.status)
-    assert "target-unreachable" in statuses, set(statuses)
-    first = statuses.index("target-unreachable")
-    after = set(statuses[first:])
-    assert after == {"target-unreachable"}, (first, after)
+    _says_unreachable_once_and_keeps_it(rc.ResolvedRateController(arm, smoothing=True), np.array(q0),
+                                        np.array(target), periods=3000)
