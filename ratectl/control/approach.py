@@ -107,13 +107,14 @@ class Progress:
           past it on the same line (`_extend`, ``extended``), far enough for the stop at
           that bound, if nothing blocks the way there; a new segment then comes back."""
         lo, hi = brake, max(_URGENT * amax, brake)
-        if _stop(self.sd, self.sdd, hi, jmax) <= x:
+        at_hi = _stop(self.sd, self.sdd, hi, jmax)
+        if at_hi <= x:
             for _ in range(12):
                 mid = 0.5 * (lo + hi)
                 lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax) > x else (lo, mid)
             return hi, False, False
         if not self.blocked:
-            past = _stop(self.sd, self.sdd, hi, jmax) * (1.0 + 1e-6) - x
+            past = at_hi * (1.0 + 1e-6) - x
             if past <= caps.room - max(lead, 0.0) - x and self._extend(past):
                 return hi, False, True
         return hi, self.blocked and caps.room_by == "singularity", False

@@ -40,44 +40,40 @@ def brake(base: np.ndarray, qd_prev: np.ndarray, dt: float, filter: VelocityFilt
     ``filter`` its synchronised stop, or — when the filter fails — the stop without it,
     with the failure added to ``reason``."""
     n = base.shape[0]
-    lower = limits.lower if limits is not None else None
-    upper = limits.upper if limits is not None else None
     if filter is not None:
         try:
-            own = None
-            if lower is not None and upper is not None:
-                own = filter.synchronised_stop_passes(base, lower, upper)
+            own = (None if limits is None  # (joints whose share would pass a limit stop on their own)
+                   else filter.synchronised_stop_passes(base, limits.lower, limits.upper))
             q_next, qd, qdd = filter.update(base, np.zeros(n), independent=own)
             return q_next, qd, qdd, reason
         except RatectlError as err:  # the filter failed: brake without it
             reason = f"{reason}; smoothing failed while halting ({err})"
-    amax = limits.amax if limits is not None else np.full(n, np.inf)
-    qd = common_stop(base, qd_prev, dt, amax, lower, upper)
+    qd = _common_stop(base, qd_prev, dt, limits)
     q_next = base + qd * dt
     qdd = (qd - qd_prev) / dt
     return q_next, qd, qdd, reason
 
 
-def common_stop(base: np.ndarray, qd_prev: np.ndarray, dt: float, amax: np.ndarray,
-                lower: np.ndarray | None, upper: np.ndarray | None) -> np.ndarray:
+def _common_stop(base: np.ndarray, qd_prev: np.ndarray, dt: float, limits: Limits | None) -> np.ndarray:
     """The joint velocities one period ``dt`` [s] into the halt without smoothing, from
     ``qd_prev`` [rad/s or m/s] at ``base``: q̇_prev·max(1 − ρ·dt, 0), ρ = min amax_i/|q̇_prev,i|
     over the joints that stop together, and sign(q̇_prev,i)·max(|q̇_prev,i| − amax_i·dt, 0)
     for a joint whose share of that stop, |q̇_prev,i|·(1/(2ρ) + dt), is longer than its
-    room to the limit ahead of it (``lower`` / ``upper``; None: no position limits)."""
+    room to the position limit ahead of it (no limits: every joint at once)."""
+    if limits is None:
+        return np.zeros_like(qd_prev)
+    amax = limits.amax
     speed = np.abs(qd_prev)
     moving = speed > 0.0
-    own = np.zeros(speed.shape, dtype=bool)
-    if lower is not None and upper is not None and moving.any():
-        rho = _common_rate(speed, amax, moving)
-        if rho < np.inf:
-            room = np.where(qd_prev > 0.0, upper - base, base - lower)
-            own = moving & (speed * (0.5 / rho + dt) > room)
-    rho = _common_rate(speed, amax, moving & ~own)
-    qd = qd_prev * max(1.0 - rho * dt, 0.0)
-    if own.any():
-        qd = np.where(own, np.sign(qd_prev) * np.maximum(speed - amax * dt, 0.0), qd)  # (inf amax: 0)
-    return qd
+    rho = _common_rate(speed, amax, moving)
+    if rho < np.inf:
+        room = np.where(qd_prev > 0.0, limits.upper - base, base - limits.lower)
+        own = moving & (speed * (0.5 / rho + dt) > room)
+        if own.any():  # (the others' common rate without them)
+            rho = _common_rate(speed, amax, moving & ~own)
+            together = qd_prev * max(1.0 - rho * dt, 0.0)
+            return np.where(own, np.sign(qd_prev) * np.maximum(speed - amax * dt, 0.0), together)
+    return qd_prev * max(1.0 - rho * dt, 0.0)  # (inf: no moving joint has an amax, at rest at once)
 
 
 def _common_rate(speed: np.ndarray, amax: np.ndarray, among: np.ndarray) -> float:

@@ -45,6 +45,11 @@ def _creeping(caps, speed: float, dt: float) -> bool:
     return caps.room_by == "singularity" and speed * dt <= AT_BLOCK
 
 
+def _twist_within(t: list[float], vtol: float, wtol: float) -> bool:
+    """A twist [v; ω] (floats) with |v| ≤ ``vtol`` [m/s] and |ω| ≤ ``wtol`` [rad/s]."""
+    return math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol
+
+
 class Servo:
     """The servo stage (stage 3 for a target alone; see the module docstring).
 
@@ -351,7 +356,7 @@ class Servo:
         vtol = max(k[0], k[1], k[2]) * self.position_tolerance
         wtol = max(k[3], k[4], k[5]) * self.orientation_tolerance
         t = cyc.J.dot(cyc.qd).tolist()  # (ndarray.dot: the same product as @, cheaper)
-        if not (math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol):
+        if not _twist_within(t, vtol, wtol):
             return
         if within:
             cyc.flags.insert(0, "target-reached")
@@ -377,11 +382,10 @@ class Servo:
         # an acceleration of mrad/s² that one time constant ahead looks like a start)
         vtol *= 0.1 if said else 0.01
         wtol *= 0.1 if said else 0.01
-        if not (math.hypot(t[0], t[1], t[2]) <= vtol and math.hypot(t[3], t[4], t[5]) <= wtol):
+        if not _twist_within(t, vtol, wtol):
             return
         if not said:
-            a = cyc.J.dot(cyc.qd + cyc.qdd * self._inv_kmax).tolist()
-            if not (math.hypot(a[0], a[1], a[2]) <= vtol and math.hypot(a[3], a[4], a[5]) <= wtol):
+            if not _twist_within(cyc.J.dot(cyc.qd + cyc.qdd * self._inv_kmax).tolist(), vtol, wtol):
                 return
             self._unreachable, self._unreachable_block = target.copy(), ""
         cyc.flags.insert(0, "target-unreachable")
