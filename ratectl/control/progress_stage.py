@@ -34,10 +34,15 @@ if TYPE_CHECKING:
     from ..model.limits import Limits
     from .smoothing import VelocityFilter
 
-__all__ = ["ProgressStage"]
+__all__ = ["ProgressStage", "with_kind"]
 
 _SHARE = 0.5  # share of amax (and jmax) the progress of an approach or a jog may use itself
 _KIND_NEAR = 0.5  # the σ band in which `analyze` names the singularity a progress stops before
+
+
+def with_kind(sentence: str, kind: str) -> str:
+    """A reason's sentence about "a singularity" naming its ``kind`` ("a wrist singularity")."""
+    return sentence.replace("a singularity", f"a {kind} singularity", 1)
 
 
 class ProgressStage:
@@ -123,7 +128,7 @@ class ProgressStage:
             if kind is None:  # named once per encounter: `analyze` with a wide "near" band
                 kind = self.singular_kind = str(analyze(self.chain, q, near=_KIND_NEAR).kind)
             cyc.kind = kind
-            cyc.reasons.append(caps.reason.replace("a singularity", f"a {kind} singularity", 1))
+            cyc.reasons.append(with_kind(caps.reason, kind))
             return
         elif caps.binding == "position" and (at_bound or caps.blocked_by):
             cyc.flags.append("joint-limit")

@@ -24,6 +24,7 @@ from ..solvers.ik import ik_iterate
 from ..spatial import pose_error_into, pose_error_rows
 from .approach import AT_BLOCK, JointLine, StraightApproach
 from .cycle import Cycle, Motion, _finite_sum, _same
+from .progress_stage import with_kind
 
 if TYPE_CHECKING:
     from ..model.chain import Chain
@@ -365,6 +366,11 @@ class Servo:
         if block:  # the straight line is blocked where the arm stands (or stood, this target)
             if not said:
                 self._unreachable, self._unreachable_block = target.copy(), block
+            if cyc.kind:  # the flags said the block with its kind: said once, here
+                named = with_kind(block, cyc.kind)
+                if named in cyc.reasons:
+                    cyc.reasons.remove(named)
+                block = named
             cyc.flags.insert(0, "target-unreachable")
             # (the distance left, not a share of the line: a line restarted from where the arm
             # is, held off it or after the target moved, begins anew at 0 %)

@@ -504,6 +504,9 @@ def test_a_line_blocked_at_a_peak_of_sigma_min_says_so_once_and_keeps_it():
                        [0.0, 0.0, 0.0, 1.0]])
     cmd = _says_unreachable_once_and_keeps_it(rc.ResolvedRateController(arm), q, target, periods=2500)
     assert "singularity" in cmd.reason, cmd.reason
+    # the block is said once, with its kind (the reason used to repeat it, once unnamed)
+    assert cmd.reason.count("whose lost direction the line heads into") == 1, cmd.reason
+    assert f"a {cmd.kind} singularity whose lost direction" in cmd.reason, (cmd.kind, cmd.reason)
 
 
 def _says_unreachable_once_and_keeps_it(ctrl, q, target, *, periods: int):
