@@ -13,9 +13,11 @@ jerk-limited 1-D motion to L (Ruckig with one degree of freedom), re-planned eve
 period from its own state under the bounds of `ProgressLimits` (joint limits mapped onto
 the progress). When the target changes, a new segment starts at the current reference pose,
 with the reference's motion projected onto the new direction, so a target that moves is
-pursued without a jump of the reference; the target's own velocity (from its last two
-poses) sets the speed at which the progress arrives at the end of the segment, so a target
-that moves steadily is met moving rather than chased to a stop.
+pursued without a jump of the reference; the target's own velocity v (from its last two
+poses) is the speed at which the progress meets it, planned in the target's frame (the gap
+closed to relative rest, `ProgressProfile`), so a target that moves steadily is met moving
+rather than chased to a stop, and no faster than a run-on past it could still stop before a
+block beyond it (`Progress._meeting_speed`).
 
 Jogging along a commanded twist uses the same bounds (`ratectl.control.jog`).
 """
@@ -27,7 +29,7 @@ import math
 import numpy as np
 
 from ..arrays import shared_zeros
-from ..model.limits import stopping_distance
+from ..model.limits import braking_speed_scalar, stopping_distance
 from ..spatial import rotation_error_rows, so3_exp_rows
 from .cycle import _same_rotation
 from .progress import ProgressCaps
@@ -86,7 +88,7 @@ class Progress:
         self.room_left = math.inf
         self._periods = 0  # periods advanced since the segment began
         self.end_accel = math.inf  # the acceleration bound at the end of the line, when known
-        self.end_speed = 0.0  # the speed at which the progress arrives at L (a target that moves)
+        self.end_speed = 0.0  # the speed of a target that moves along the line, met at it (0: at rest)
 
     def _extend(self, by: float) -> bool:
         """Run the segment on past its end by ``by`` [progress units], on the same line:
@@ -94,10 +96,14 @@ class Progress:
         return False
 
     def _late_stop(self, brake: float, x: float, amax: float, jmax: float, caps: ProgressCaps,
-                   lead: float) -> tuple[float, bool, bool]:
+                   lead: float, v_end: float = 0.0) -> tuple[float, bool, bool]:
         """A stop from the present state that no longer fits in ``x`` at ``brake``:
         ``(brake, overrun, extended)``. It brakes just as hard as needed, up to `_URGENT` × ``amax``.
-        Where even that does not fit:
+        A target that moves at ``v_end`` > 0 is met in its frame (the speed ṡ − v_end stops
+        in ``x``; its bounds shrink on the way as J changes, so a time-optimal plan made at
+        the nominal level comes late). Where even that does not fit, a moving target is met
+        as fast as that allows (the segment's end then holds the progress at its speed); a
+        target at rest:
 
         * before a singularity's block (its σ_min of the stop, or the peak of σ_min below
           it), ``overrun``: the stop runs on along the direction, a little past it (σ_min
@@ -106,18 +112,37 @@ class Progress:
         * at the target (one that stopped, or a switch close ahead), the segment runs on
           past it on the same line (`_extend`, ``extended``), far enough for the stop at
           that bound, if nothing blocks the way there; a new segment then comes back."""
+        v = self.sd - v_end
         lo, hi = brake, max(_URGENT * amax, brake)
-        at_hi = _stop(self.sd, self.sdd, hi, jmax)
+        at_hi = _stop(v, self.sdd, hi, jmax)
         if at_hi <= x:
             for _ in range(12):
                 mid = 0.5 * (lo + hi)
-                lo, hi = (mid, hi) if _stop(self.sd, self.sdd, mid, jmax) > x else (lo, mid)
+                lo, hi = (mid, hi) if _stop(v, self.sdd, mid, jmax) > x else (lo, mid)
+            return hi, False, False
+        if v_end > 0.0:
             return hi, False, False
         if not self.blocked:
             past = at_hi * (1.0 + 1e-6) - x
             if past <= caps.room - max(lead, 0.0) - x and self._extend(past):
                 return hi, False, True
         return hi, self.blocked and caps.room_by == "singularity", False
+
+    def _meeting_speed(self, caps: ProgressCaps, speed_scale: float, lead: float, end: float) -> float:
+        """The speed at which the progress meets a target that moves (`end_speed`; 0 for one
+        at rest), at most the speed bound (× ``speed_scale``) and the speed from which the
+        run-on past the target, were it to stop there, still stops before a block beyond it
+        (a limit, a singularity: ``caps.room`` from the arm, which this progress leads by
+        ``lead``), at the planned share of the bounds there: a target that moves toward a
+        block is followed ever slower as the room shrinks, never at a speed only a jump to
+        rest on it could stop."""
+        v = min(self.end_speed, caps.free_speed * speed_scale)
+        if v > 0.0 and caps.room < math.inf:
+            beyond = caps.room - max(lead, 0.0) - end
+            accel = _PLANNED * min(caps.accel, self.end_accel, caps.room_accel)
+            jerk = max(min(caps.jerk, caps.room_jerk), 1e-6)
+            v = min(v, braking_speed_scalar(beyond, max(accel, 1e-9), jerk))
+        return v
 
     def stopping_progress(self, dt: float, accel: float | None = None, jerk: float | None = None) -> float:
         """The progress this motion needs to come to rest [progress units]: one period at its
@@ -136,15 +161,16 @@ class Progress:
         ahead of the arm (the room ahead of a block is measured from the arm)."""
         self._periods += 1
         end = self.L - self.s
-        if not end > 0.0:  # at the end: the reference rests on the target
+        if not end > 0.0 and not self.sd > 0.0:  # at the end: the reference rests on the target
             self.s, self.sd, self.sdd = self.L, 0.0, 0.0
             return 0.0
+        # (at the end still moving: it met a target that moved and has now stopped; the stop
+        # below runs on past it on the line, as from anywhere too close to stop before it)
         # the stop is planned at the target, or before a block ahead (a joint limit, the
         # σ_min at which a singularity stops the motion): at rest there, the line is blocked
         x = min(end, caps.room - max(lead, 0.0))
         self.blocked = x < end
-        # a target that moves: arrive at L at its speed along the line (never at a block)
-        v_end = min(self.end_speed, caps.free_speed * speed_scale) if not self.blocked else 0.0
+        v_end = self._meeting_speed(caps, speed_scale, lead, end) if not self.blocked else 0.0
         self.room_left = x
         if not x > 0.0 and self.sd == 0.0:
             self.sdd = 0.0
@@ -173,9 +199,10 @@ class Progress:
         if self.sd > vmax:  # above a speed bound: its braking law assumes the whole bound
             brake = max(brake, amax)
         overrun = False
-        if v_end <= 0.0 and self.sd > 0.0 and _stop_bound(self.sd, self.sdd, brake, jmax) > x \
-                and _stop(self.sd, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
-            brake, overrun, extended = self._late_stop(brake, x, amax, jmax, caps, lead)
+        v_rel = self.sd - v_end  # toward the end in the target's frame (at rest: ṡ)
+        if v_rel > 0.0 and _stop_bound(v_rel, self.sdd, brake, jmax) > x \
+                and _stop(v_rel, self.sdd, brake, jmax) > x * (1.0 + 1e-9):
+            brake, overrun, extended = self._late_stop(brake, x, amax, jmax, caps, lead, v_end)
             if extended:  # (the segment now runs on past its target)
                 end = x = self.L - self.s
         self._brake, self._nominal, self._jerk = brake, nominal, jmax
@@ -314,11 +341,11 @@ class StraightApproach(Progress):
 
         With ``dt`` [s], the time since the previous target: the target's own velocity,
         τ = [Δp; log(R R_prevᵀ)]/dt, gives the speed v = ⟨τ, d′⟩_W at which the progress
-        arrives at the end of the new segment (``end_speed``), so that a target that moves
-        is met moving instead of being chased from behind by a reference that plans to rest
-        on it. A target that jumps (a switch) is not moving: v counts only when two
-        successive estimates agree within 25 %, and the smaller is taken. ``rows``: the
-        target's rows of floats, when the caller has them."""
+        meets the target (``end_speed``), so that a target that moves is met moving instead
+        of being chased from behind by a reference that plans to rest on it. A target that
+        jumps (a switch) is not moving: v counts only when two successive estimates agree
+        within 25 %, and the smaller is taken. ``rows``: the target's rows of floats, when
+        the caller has them."""
         d_old, sd, sdd = self._d, self.sd, self.sdd
         t = target.tolist() if rows is None else rows
         tau = self._target_rate(t, dt) if dt is not None else None

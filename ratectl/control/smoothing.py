@@ -341,16 +341,32 @@ class ProgressProfile(_OneAxis):
 
     def step(self, x: float, v: float, a: float, *, vmax: float, amax: float, jmax: float,
              dt: float, brake: float | None = None, v_end: float = 0.0):
-        """From progress 0 at speed ``v`` and acceleration ``a``, the time-optimal motion to
-        ``x``, arriving there at speed ``v_end`` (0: at rest; clipped into [0, vmax]), under
-        |ẋ| ≤ vmax, |x⃛| ≤ jmax, accelerating toward ``x`` by at most ``amax`` and
-        decelerating by at most ``brake`` (default amax): returns its (progress, speed,
-        acceleration) one period ``dt`` later, or None if Ruckig finds no motion."""
+        """From progress 0 at speed ``v`` and acceleration ``a``, the time-optimal motion that
+        meets a goal now at ``x`` and moving on at ``v_end`` ≥ 0 (0: a goal at rest; clipped
+        into [0, vmax]), under |ẋ| ≤ vmax, |x⃛| ≤ jmax, accelerating toward ``x`` by at most
+        ``amax`` and decelerating by at most ``brake`` (default amax): returns its (progress,
+        speed, acceleration) one period ``dt`` later, or None if Ruckig finds no motion.
+
+        A moving goal is met in its own frame, y = x(t) − v_end·t: from y = 0 at speed
+        v − v_end to y = ``x`` at relative rest, the relative speed within
+        [−v_end, vmax − v_end] (the progress neither runs backwards nor passes vmax). Its
+        progress and speed one period later are y₁ + v_end·dt and ẏ₁ + v_end. (Planned
+        instead to arrive at the goal's present place with its speed, the progress would
+        close the gap only as v_end·Δv ≈ brake·gap allows, exponentially, at brake/v_end.)"""
         inp = self._inp
-        inp.target_velocity = [min(max(v_end, 0.0), vmax)]
-        inp.current_velocity = [v]
+        v_goal = min(max(v_end, 0.0), vmax)
+        moving = v_goal > 0.0 and vmax - v_goal > 1e-9 * vmax
+        if moving:  # in the goal's frame
+            inp.target_velocity = [0.0]
+            inp.current_velocity = [v - v_goal]
+            inp.max_velocity = [vmax - v_goal]
+            inp.min_velocity = [-v_goal]
+        else:
+            inp.target_velocity = [v_goal]
+            inp.current_velocity = [v]
+            inp.max_velocity = [vmax]
+            inp.min_velocity = None
         inp.target_position = [x]
-        inp.max_velocity = [vmax]
         inp.max_jerk = [jmax]
         brake = amax if brake is None else brake
         if x >= 0.0:  # the target ahead: braking is a negative acceleration
@@ -362,6 +378,8 @@ class ProgressProfile(_OneAxis):
         out = self._update(dt)
         if out is None:
             return None
+        if moving:
+            return out.new_position[0] + v_goal * dt, out.new_velocity[0] + v_goal, out.new_acceleration[0]
         return out.new_position[0], out.new_velocity[0], out.new_acceleration[0]
 
 

@@ -20,19 +20,24 @@ def _circle(T0, t, radius=0.05, speed=0.2):
     return T
 
 
-@pytest.mark.parametrize("solver", ["default", "qp"])
-def test_a_target_moving_on_a_circle_is_tracked_within_a_few_mm(solver):
-    """UR5e, a target on a 5 cm circle at 0.2 m/s: after the first half second the tool
-    stays within 3 mm of it (a reference planned to rest on each new target trails it by
-    about 16 mm), within vmax and amax."""
+@pytest.mark.parametrize(("solver", "smoothing", "within"),
+                         [("default", False, 0.5e-3), ("qp", False, 0.5e-3), ("default", True, 2e-3),
+                          ("qp", True, 2e-3)],
+                         ids=["default", "qp", "default-smooth", "qp-smooth"])
+def test_a_target_moving_on_a_circle_is_met_within_half_a_second(solver, smoothing, within):
+    """UR5e, a target on a 5 cm circle at 0.2 m/s from the tool: after the first half
+    second the tool stays within 0.5 mm of it (2 mm with smoothing), within vmax and amax.
+    The progress meets the moving target in the target's own frame; planned to arrive at
+    the target's present place with its speed instead, it closed the gap only
+    exponentially (1.9 mm after 0.5 s, 15 mm with smoothing)."""
     arm = rc.robots.ur5e()
     kw = {} if solver == "default" else {"solver": rc.solvers.QP()}
-    ctrl = rc.ResolvedRateController(arm, **kw)
+    ctrl = rc.ResolvedRateController(arm, smoothing=smoothing, **kw)
     T0 = arm.fk(Q0)
     q = Q0.copy()
     qd_prev = np.zeros(6)
     dist = []
-    for k in range(2000):
+    for k in range(1500):
         T = _circle(T0, k * DT)
         cmd = ctrl.step(q, target=T, dt=DT)
         assert np.all(np.abs(cmd.qd) <= arm.vmax * (1 + 1e-9))
@@ -41,7 +46,7 @@ def test_a_target_moving_on_a_circle_is_tracked_within_a_few_mm(solver):
         q = cmd.q_next
         if k * DT >= 0.5:
             dist.append(float(np.linalg.norm(arm.fk(q)[:3, 3] - _circle(T0, (k + 1) * DT)[:3, 3])))
-    assert max(dist) <= 3e-3, max(dist)
+    assert max(dist) <= within, max(dist)
 
 
 def test_a_switched_target_is_not_taken_for_a_moving_one():
@@ -67,26 +72,23 @@ def test_a_switched_target_is_not_taken_for_a_moving_one():
     assert max(along) - 0.15 <= 0.01 * 0.15 + 1e-4, max(along) - 0.15
 
 
-@pytest.mark.parametrize(("smoothing", "off_max"), [(False, 0.1e-3), (True, 2e-3)], ids=["plain", "smooth"])
-def test_a_target_that_stops_dead_is_passed_and_met_on_its_line(smoothing, off_max):
-    """UR5e tracking a target that moves on a line at 0.3 m/s for 0.8 s and stops dead:
-    the reference cannot come to rest on it, so it runs on past it on the same line and
-    comes back. The tool stays on the line through the target (it swerved 0.56 mm off it,
-    43 mm with smoothing, when the reference jumped to rest on the target; now 0.02 and
-    1.5 mm), ends on the target, within vmax and amax."""
+def _stop_dead(u, smoothing, *, speed=0.3, moving=0.8):
+    """UR5e tracking a target that moves along ``u`` at ``speed`` for ``moving`` [s] from the
+    tool, then stops dead; checks |q̇| ≤ vmax and |q̈| ≤ amax each period. Returns the
+    tool's positions along u past the stopped target, its distances from the target's line
+    after the stop, and the last command."""
     arm = rc.robots.ur5e()
     ctrl = rc.ResolvedRateController(arm, smoothing=smoothing)
     T0 = arm.fk(Q0)
-    u = np.array([-1.0, 0.0, 0.0])
 
     def target(t):
         T = T0.copy()
-        T[:3, 3] += u * 0.3 * min(t, 0.8)
+        T[:3, 3] += u * speed * min(t, moving)
         return T
 
     q = Q0.copy()
     qd_prev = np.zeros(6)
-    p_end = target(1.0)[:3, 3]
+    p_end = target(moving)[:3, 3]
     off, along = [], []
     for k in range(3000):
         cmd = ctrl.step(q, target=target(k * DT), dt=DT)
@@ -94,10 +96,34 @@ def test_a_target_that_stops_dead_is_passed_and_met_on_its_line(smoothing, off_m
         assert np.all(np.abs(cmd.qd - qd_prev) <= arm.amax * DT * (1 + 1e-6))
         qd_prev = cmd.qd
         q = cmd.q_next
-        if k * DT >= 0.8:  # the target has stopped
+        if k * DT >= moving:  # the target has stopped
             rel = arm.fk(q)[:3, 3] - p_end
             along.append(float(rel @ u))
             off.append(float(np.linalg.norm(rel - (rel @ u) * u)))
+    return along, off, cmd
+
+
+@pytest.mark.parametrize(("smoothing", "off_max"), [(False, 0.1e-3), (True, 0.5e-3)], ids=["plain", "smooth"])
+def test_a_target_that_stops_dead_is_passed_and_met_on_its_line(smoothing, off_max):
+    """A target that moves on a line at 0.3 m/s for 0.8 s and stops dead: the reference,
+    which meets it moving, cannot come to rest on it, so it runs on past it on the same
+    line and comes back. The tool stays on the line through the target (it swerved
+    0.56 mm off it, 43 mm with smoothing, when the reference jumped to rest on the
+    target; now 0.01 and 0.05 mm), ends on the target, within vmax and amax."""
+    along, off, cmd = _stop_dead(np.array([0.0, 1.0, 0.0]), smoothing)
     assert max(along) > 5e-3  # it did pass the target (the physics of 0.3 m/s)
+    assert max(off) <= off_max, max(off)
+    assert cmd.status == "target-reached" and abs(along[-1]) < 1e-4
+
+
+@pytest.mark.parametrize(("smoothing", "off_max"), [(False, 0.1e-3), (True, 1e-3)], ids=["plain", "smooth"])
+def test_a_target_moving_toward_a_singularity_is_followed_slower_and_stops_on_its_line(smoothing, off_max):
+    """The same target moving along −x, toward a singularity that leaves the arm about
+    3 cm past the stop: the speed at which the progress meets the target is bounded so
+    that the run-on past it would still stop before the singularity, so the tool is
+    followed ever slower and, when the target stops dead, stays on its line (met at the
+    target's full speed, the run-on did not fit, the reference jumped to rest on the
+    target and the smoothed arm left the line by 63 mm)."""
+    along, off, cmd = _stop_dead(np.array([-1.0, 0.0, 0.0]), smoothing)
     assert max(off) <= off_max, max(off)
     assert cmd.status == "target-reached" and abs(along[-1]) < 1e-4
