@@ -395,7 +395,10 @@ class ResolvedRateController:
         smoothing the filter's synchronised jerk-limited stop); a joint whose share of that
         stop would run past its position limit brakes on its own at its full rate. The
         motion continues from the measured q, or — when q is not finite — from the last
-        commanded position, so the commanded stream stays continuous."""
+        commanded position, so the commanded stream stays continuous. The servo's approach is
+        forgotten: its reference went on while the arm braked, so the next target starts a
+        new line from where the arm is, with the motion the halt commanded."""
+        self._servo.forget()
         qd_prev = self._m.qd
         if np.all(np.isfinite(q)):
             base = q

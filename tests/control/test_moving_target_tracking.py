@@ -127,3 +127,35 @@ def test_a_target_moving_toward_a_singularity_is_followed_slower_and_stops_on_it
     along, off, cmd = _stop_dead(np.array([-1.0, 0.0, 0.0]), smoothing)
     assert max(off) <= off_max, max(off)
     assert cmd.status == "target-reached" and abs(along[-1]) < 1e-4
+
+
+@pytest.mark.parametrize(("smoothing", "off_max"), [(False, 0.1e-3), (True, 0.5e-3)], ids=["plain", "smooth"])
+def test_after_a_stale_target_halt_a_moving_target_is_met_on_its_line(smoothing, off_max):
+    """A target moving along +x at 0.2 m/s (2 ms periods) whose stamp is stale for 0.12 s
+    mid-motion: the arm halts, then resumes on a new line from where it stopped and meets
+    the target on its line, within amax. (The approach kept its reference through the
+    halt, moving at the target's speed while the arm braked to rest: on resuming, the
+    reference ran ahead of the arm, the line restarted from the arm again and again, and
+    the smoothed tool left the line by 51 mm.)"""
+    arm = rc.robots.ur5e()
+    dt = 2e-3
+    ctrl = rc.ResolvedRateController(arm, smoothing=smoothing)
+    T0 = arm.fk(Q0)
+    u = np.array([1.0, 0.0, 0.0])
+    q = Q0.copy()
+    qd_prev = np.zeros(6)
+    off, statuses = [], set()
+    for k in range(1500):
+        T = T0.copy()
+        T[:3, 3] += u * 0.2 * min(k * dt, 1.0)
+        stamp = ctrl.time - 1.0 if 200 <= k < 260 else ctrl.time
+        cmd = ctrl.step(q, target=T, dt=dt, stamp=stamp)
+        statuses.add(cmd.status)
+        assert np.all(np.abs(cmd.qd - qd_prev) <= arm.amax * dt * (1 + 1e-6))
+        qd_prev = cmd.qd
+        q = cmd.q_next
+        rel = arm.fk(q)[:3, 3] - T0[:3, 3]
+        off.append(float(np.linalg.norm(rel - (rel @ u) * u)))
+    assert "halted" in statuses
+    assert max(off) <= off_max, max(off)
+    assert cmd.status == "target-reached"
