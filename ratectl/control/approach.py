@@ -102,8 +102,8 @@ class Progress:
         A target that moves at ``v_end`` > 0 is met in its frame (the speed ṡ − v_end stops
         in ``x``; its bounds shrink on the way as J changes, so a time-optimal plan made at
         the nominal level comes late). Where even that does not fit, a moving target is met
-        as fast as that allows (the segment's end then holds the progress at its speed); a
-        target at rest:
+        as fast as that allows (the progress that reaches the segment's end is held there at
+        the target's speed); a target at rest:
 
         * before a singularity's block (its σ_min of the stop, or the peak of σ_min below
           it), ``overrun``: the stop runs on along the direction, a little past it (σ_min
