@@ -32,12 +32,11 @@ from ..arrays import shared_zeros
 from ..model.limits import braking_speed_scalar, stopping_distance
 from ..spatial import rotation_error_rows, so3_exp_rows
 from .cycle import _same_rotation
-from .progress import ProgressCaps
+from .progress import PLANNED_BRAKE, ProgressCaps
 from .smoothing import ProgressProfile, SpeedProfile
 
 __all__ = ["Progress", "StraightApproach", "JointLine"]
 
-_PLANNED = 0.5  # a stop is planned at this share of the progress's acceleration bound
 _URGENT = 2.0  # a late stop brakes with up to this multiple of the bound (all of amax at η = 1/2)
 AT_BLOCK = 1e-5  # [progress units ~ m]: a progress this close to a block, and creeping, stands at it
 
@@ -139,7 +138,7 @@ class Progress:
         v = min(self.end_speed, caps.free_speed * speed_scale)
         if v > 0.0 and caps.room < math.inf:
             beyond = caps.room - max(lead, 0.0) - end
-            accel = _PLANNED * min(caps.accel, self.end_accel, caps.room_accel)
+            accel = PLANNED_BRAKE * min(caps.accel, self.end_accel, caps.room_accel)
             jerk = max(min(caps.jerk, caps.room_jerk), 1e-6)
             v = min(v, braking_speed_scalar(beyond, max(accel, 1e-9), jerk))
         return v
@@ -151,7 +150,7 @@ class Progress:
         the first period), or, given the bounds ``accel`` on |s̈| and ``jerk`` on |s⃛| (those
         at a block), the stop `advance` would plan within them."""
         if accel is not None and jerk is not None:
-            return stopping_progress(self.sd, self.sdd, _PLANNED * min(accel, self.end_accel), jerk, dt)
+            return stopping_progress(self.sd, self.sdd, PLANNED_BRAKE * min(accel, self.end_accel), jerk, dt)
         return stopping_progress(self.sd, self.sdd, self._nominal, self._jerk, dt)
 
     def advance(self, caps: ProgressCaps, dt: float, *, speed_scale: float = 1.0, lead: float = 0.0) -> float:
@@ -194,7 +193,7 @@ class Progress:
         # past the target, on the line (`_extend`). A stop once planned harder keeps its level
         # (planned again at the nominal level, the time-optimal plan would brake later each
         # period and ratchet up to the reserve).
-        nominal = _PLANNED * min(amax, self.end_accel, block_accel)
+        nominal = PLANNED_BRAKE * min(amax, self.end_accel, block_accel)
         brake = max(nominal, self._brake) if self.sdd < 0.0 else nominal
         if self.sd > vmax:  # above a speed bound: its braking law assumes the whole bound
             brake = max(brake, amax)

@@ -29,7 +29,7 @@ from ..arrays import shared_zeros
 from ..errors import RatectlError, SingularityError
 from .approach import Progress, stopping_progress
 from .cycle import Cycle, Motion, _finite_sum, _same
-from .progress import ProgressCaps
+from .progress import PLANNED_BRAKE, ProgressCaps
 from .smoothing import SpeedProfile
 
 if TYPE_CHECKING:
@@ -60,6 +60,7 @@ class Jog:
         self._plan = Progress()  # the stop before a singularity's block (smoothed)
         self._plan.L = math.inf
         self._block: float | None = None  # where the planned stop ends, in the plan's progress
+        self._block_by = ""  # what blocks there: "singularity" or "position"
 
     def start(self, twist: np.ndarray, *, signed: bool = False) -> None:
         """A new commanded twist: c continues from the previous motion projected on it.
@@ -90,9 +91,10 @@ class Jog:
         self.twist = twist.copy()
 
     @property
-    def stopping(self) -> bool:
-        """A stop planned before a singularity is under way (smoothed)."""
-        return self._block is not None
+    def stopping(self) -> str:
+        """What a stop under way is planned before (smoothed): ``"singularity"`` or
+        ``"position"`` (a joint's limit); "" when none is."""
+        return self._block_by if self._block is not None else ""
 
     def stopping_progress(self, dt: float, accel: float | None = None, jerk: float | None = None) -> float:
         """The progress the jog needs to come to rest [twist·s]: one period at c, then the
@@ -114,6 +116,19 @@ class Jog:
         self.c = max(c, 0.0)
         return self.c
 
+    def _stop_due(self, caps: ProgressCaps, by: str, room: float, dt: float) -> bool:
+        """Whether a stop before the block ``room`` ahead is to be planned now: before a
+        singularity once its braking speed binds (before that, every bound of this period
+        holds through ``caps.speed``), before a position limit once the stop the plan would
+        make needs half the room (a braking speed that falls as the joint nears its limit is
+        more than a jerk-limited c can follow once it binds: the guard then brakes that joint
+        alone, off the twist)."""
+        if not self.c > 0.0:
+            return False
+        if by == "singularity":
+            return caps.binding == "singularity" and caps.speed < 1.0
+        return 2.0 * stopping_progress(self.c, self.cd, PLANNED_BRAKE * caps.accel, caps.jerk, dt) >= room
+
     def advance_smoothly(self, caps: ProgressCaps, dt: float) -> float:
         """c for the coming period with smoothing: toward min(1, the speed bound) on a
         jerk-limited motion (`SpeedProfile`, within the acceleration and jerk bounds), so that
@@ -124,25 +139,26 @@ class Jog:
             prof = self._profile = SpeedProfile(dt)
         self._bounds = (caps.accel, caps.jerk)
         plan = self._plan
-        room = caps.room if caps.room_by == "singularity" else math.inf
+        by = caps.room_by
+        # a block ahead: a singularity's σ_min of the stop, or a joint's position limit less
+        # the jog's margin inside it
+        room = caps.room - caps.room_margin if by else math.inf
         if self._block is not None and (room == math.inf or caps.room_peak):
             # a stop planned before, whose block this period's look-ahead no longer sees (a
             # stopping distance that shrank as the stop went on), or a peak of σ_min seen
             # again (its estimate from nearer is no earlier): it ends there, at rest
-            room = min(room, self._block - plan.s)
-        # (planned once the singularity's braking speed binds: before that, every bound of
-        # this period, a joint limit's braking speed among them, holds through `caps.speed`)
-        if room < math.inf and ((self.c > 0.0 and caps.binding == "singularity" and caps.speed < 1.0)
-                                or self._block is not None):
-            # a singularity's block ahead: the stop is planned there, as the approach plans
-            # its own (`Progress`, at the block's bounds; late, it runs on a little past it),
-            # and kept until the jog rests (a speed bound that falls faster than a
-            # jerk-limited c can follow, or a stop cut short, would leave the filter's
-            # joints running on while c·w turns with w)
+            room, by = min(room, self._block - plan.s), self._block_by
+        if room < math.inf and (self._block is not None or self._stop_due(caps, by, room, dt)):
+            # the stop is planned there, as the approach plans its own (`Progress`, at the
+            # block's bounds; late before a singularity, it runs on a little past it), and
+            # kept until the jog rests (a speed bound that falls faster than a jerk-limited c
+            # can follow, or a stop cut short, would leave the filter's joints running on
+            # while c·w turns with w)
             self._block = plan.s + max(room, 0.0)
+            self._block_by = by
             plan.sd, plan.sdd = self.c, self.cd
             plan.advance(replace(caps, free_speed=min(1.0, caps.free_speed), room=max(room, 0.0),
-                                 room_by="singularity"), dt)
+                                 room_by=by), dt)
             self.c, self.cd = (plan.sd, plan.sdd) if plan.sd > 0.0 else (0.0, 0.0)
             if self.c == 0.0:
                 self._block = None
@@ -240,19 +256,32 @@ class JogStage:
             cyc.res = pr.direction_result(J, twist, w, sig_w, damping_w)
             cyc.qd = w * c
             if self._smoothed:  # the reference's acceleration ċ·w + c·ẇ, met by the filter
-                cyc.qdd_ff = w * jog.cd if dw is None else w * jog.cd + dw / dt * c
+                if dw is None:
+                    cyc.qdd_ff = w * jog.cd
+                else:
+                    # the filter meets its reference at the end of the period, where the arm's
+                    # w is w + ẇ·dt (the tool's velocity c·J w stays on the twist there, not
+                    # one period behind it: a lag of ẇ·dt with no feedback to take it back)
+                    w_end = w + dw
+                    cyc.qd = w_end * c
+                    cyc.qdd_ff = w_end * jog.cd + dw / dt * c
                 cyc.approach_qd = cyc.qd
             cyc.active = []
             cyc.scale = 1.0
             cyc.smin = None
         at_bound = c >= caps.speed * (1.0 - 1e-9) and c < 1.0
-        if jog.stopping:
-            # a stop planned before a singularity goes on to rest (whatever this period's
-            # speed bound says): it is what holds the motion
-            if caps.binding != "singularity":
-                caps.binding = "singularity"
-                caps.reason = ("stopping before a singularity: the commanded direction lowers σ_min "
-                               f"(σ_min = {caps.sigma:.3g}) on its way")
+        stop_by = jog.stopping
+        # a stop planned before a block goes on to rest (whatever this period's speed bound
+        # says): it is what holds the motion (before a position limit, once it slows the jog)
+        if stop_by and (stop_by == "singularity" or jog.cd < 0.0
+                        or c_prev >= c < min(1.0, caps.free_speed) * (1.0 - 1e-9)):
+            if caps.binding != stop_by:
+                caps.binding = stop_by
+                if stop_by == "singularity":
+                    caps.reason = ("stopping before a singularity: the commanded direction lowers σ_min "
+                                   f"(σ_min = {caps.sigma:.3g}) on its way")
+                else:
+                    caps.reason = caps.room_reason or "stopping before a joint's position limit"
             at_bound = True
         self._progress.flags(cyc, q, caps, c != 0.0, at_bound)
         if c_prev < c < min(1.0, caps.speed) * (1.0 - 1e-12):

@@ -68,7 +68,7 @@ _LOST = 0.2  # share of |J⁺d|² in the weakest direction above which a directi
 _AHEAD_STEPS = 4  # at most this many steps of the singularity look-ahead along the direction's joint path
 _FAR_ABOVE = 2.0  # the look-ahead runs below this many times stop_sigma
 _AHEAD_JOINT_STEP = 0.05  # [rad or m] a look-ahead step moves a joint at most this far (w at q)
-_PLANNED_BRAKE = 0.5  # the share of the acceleration bound a stop ahead is assumed to brake at
+PLANNED_BRAKE = 0.5  # a stop is planned at this share of the progress's acceleration bound (approach, jog)
 _SIGMA_NOISE = 1e-10  # a change of σ_min over the look-ahead step below this is rounding
 _BEND_STEP = 0.02  # [rad or m] the joint step (w at q) over which the bend of σ_min ahead is measured
 _UNBOUNDED = 1e9  # an absent bound on the progress (Ruckig needs finite limits)
@@ -102,6 +102,8 @@ class ProgressCaps:
             the bounds there are those at q).
         room_peak: the block is the peak of σ_min below ``stop_sigma`` (a motion that rises
             away from a singularity and would then lower σ_min again).
+        room_margin: the progress of the margin a jog keeps inside a position limit
+            (`_LIMIT_MARGIN` of the joint that blocks, in progress units; 0 for a singularity).
     """
 
     speed: float
@@ -119,6 +121,7 @@ class ProgressCaps:
     room_accel: float = math.inf
     room_jerk: float = math.inf
     room_peak: bool = False
+    room_margin: float = 0.0
 
 
 @dataclass(slots=True)
@@ -244,6 +247,7 @@ class ProgressLimits:
             slack = self._l_slack
         p_min = p_room = inf
         jp = p_joint = -1
+        p_inv = 0.0
         moving = False
         for i, wi in enumerate(wl):
             awi = wi if wi >= 0.0 else -wi
@@ -288,7 +292,7 @@ class ProgressLimits:
                 p_min, jp = x, i
             x = (room if room > 0.0 else 0.0) * inv
             if x < p_room:
-                p_room, p_joint = x, i
+                p_room, p_joint, p_inv = x, i, inv
         if not moving:  # no joint moves along the direction
             return ProgressCaps(speed=_UNBOUNDED, accel=_UNBOUNDED, jerk=_UNBOUNDED)
         binding, joint = ("velocity", jv) if speed < inf else ("", -1)
@@ -314,7 +318,7 @@ class ProgressLimits:
                             binding=binding, blocked_by=blocked_by, joint=joint, reason=reason,
                             free_speed=free_speed)
         if p_room < inf:
-            caps.room, caps.room_by = p_room, "position"
+            caps.room, caps.room_by, caps.room_margin = p_room, "position", _LIMIT_MARGIN * p_inv
             caps.room_reason = self._limit_reason(wl, p_joint, at=p_room <= 0.0)
         if exact is not None and sigma is not None and sigma < self.watch_sigma:
             self._singularity(caps, q, w, exact, ahead)
@@ -378,7 +382,7 @@ class ProgressLimits:
             if w_next is not None:
                 v_k, a_k, j_k = self._bounds_at(w_next)
                 if v_k < math.inf:  # vmax at this step
-                    slow = (braking_speed_scalar(x_k, _PLANNED_BRAKE * a_k, j_k) if a_k < math.inf
+                    slow = (braking_speed_scalar(x_k, PLANNED_BRAKE * a_k, j_k) if a_k < math.inf
                             else math.inf)
                     out.speed = min(out.speed, math.sqrt(v_k * v_k + slow * slow))
             s_prev, h_prev, x_prev = ss[-1], hs[-1], xs[-1]
@@ -525,7 +529,7 @@ class ProgressLimits:
         accel_block, jerk_block = block_bounds
         if max(room, 0.0) < caps.room:  # the room ahead (an approach plans its stop there)
             # (said of the block itself: whether the arm still moves is the status's to say)
-            caps.room, caps.room_by = max(room, 0.0), "singularity"
+            caps.room, caps.room_by, caps.room_margin = max(room, 0.0), "singularity", 0.0
             caps.room_accel, caps.room_jerk = accel_block, jerk_block
             caps.room_peak = peak and 0.0 < room
             caps.room_reason = (f"a singularity whose lost direction the line heads into (σ_min = "

@@ -165,6 +165,11 @@ class Servo:
                 # period (ṡ₁ with s̈₁), where q + q̇·dt needs the period's mean speed
                 speed = ap.sd
             ap.w_prev = w
+            if w_rate is not None:
+                # the filter meets its reference at the end of the period, where the arm's w
+                # is w + ẇ·dt (the progress's velocity stays on the line there, not one
+                # period behind it)
+                w = w + w_rate * dt
             if speed != 0.0:
                 # the progress along the line on its own direction w (exact where J is regular),
                 # not the solver's answer for ṡ·d, which a constant damping shrinks and turns
