@@ -254,18 +254,16 @@ class JogStage:
                 return halt
         else:
             cyc.res = pr.direction_result(J, twist, w, sig_w, damping_w)
-            cyc.qd = w * c
             if self._smoothed:  # the reference's acceleration ċ·w + c·ẇ, met by the filter
-                if dw is None:
-                    cyc.qdd_ff = w * jog.cd
-                else:
-                    # the filter meets its reference at the end of the period, where the arm's
-                    # w is w + ẇ·dt (the tool's velocity c·J w stays on the twist there, not
-                    # one period behind it: a lag of ẇ·dt with no feedback to take it back)
-                    w_end = w + dw
-                    cyc.qd = w_end * c
-                    cyc.qdd_ff = w_end * jog.cd + dw / dt * c
+                # the filter meets its reference at the end of the period, where the arm's w
+                # is w + ẇ·dt (the tool's velocity c·J w stays on the twist there, not one
+                # period behind it: a lag of ẇ·dt with no feedback to take it back)
+                w_end = w if dw is None else w + dw
+                cyc.qd = w_end * c
+                cyc.qdd_ff = w_end * jog.cd if dw is None else w_end * jog.cd + dw / dt * c
                 cyc.approach_qd = cyc.qd
+            else:
+                cyc.qd = w * c
             cyc.active = []
             cyc.scale = 1.0
             cyc.smin = None

@@ -343,13 +343,13 @@ class ProgressLimits:
                     jerk = x
         return speed, accel, jerk
 
-    def _room_ahead(self, q, w, exact, sigma: float, share: float, D: float) -> _Ahead:
+    def _room_ahead(self, q, w, w_inf: float, exact, sigma: float, share: float, D: float) -> _Ahead:
         """What lies within the progress ``D`` ahead (a little more than the motion needs to
         come to rest at the bounds of a block) near a singularity, where the slope of σ_min
         at q says nothing yet (past a maximum of σ_min, before it, or for a direction not
         yet lost here). The joint path of the direction is followed in up to `_AHEAD_STEPS` steps
-        (as few as move no joint more than `_AHEAD_JOINT_STEP` by w at q), each along the
-        exact w = J⁺d where it starts (σ_min, the share and w from one SVD
+        (as few as move no joint more than `_AHEAD_JOINT_STEP` by w at q, ``w_inf`` = max |w_i|),
+        each along the exact w = J⁺d where it starts (σ_min, the share and w from one SVD
         per step). The block is the first point where σ_min is at most ``stop_sigma`` with
         the direction lost there (its share of |J⁺d|² above 0.2; the share grows as σ_min
         falls toward a singularity whose lost direction the motion heads into):
@@ -368,7 +368,6 @@ class ProgressLimits:
         progress slows once the bound binds)."""
         stop = self.stop_sigma
         rising = sigma <= stop and share > _LOST  # only a rise away from the singularity is free
-        w_inf = max(abs(x) for x in w.tolist())
         steps = min(_AHEAD_STEPS, max(1, math.ceil(w_inf * D / _AHEAD_JOINT_STEP)))
         dx = D / steps
         xs, ss, hs = [0.0], [sigma], [share]
@@ -425,10 +424,10 @@ class ProgressLimits:
                                          else f"joint {self.name(i)} braking toward its {side} limit")
         return text
 
-    def _bend_room(self, q, w, exact, sigma: float, slope: float) -> float:
+    def _bend_room(self, q, w, w_inf: float, exact, sigma: float, slope: float) -> float:
         """Where σ_min, bending down ahead, holds the motion: on the parabola through σ_min
         at q with its slope there (``slope`` = dσ_min/ds) and σ_min one joint step
-        `_BEND_STEP` ahead along w, σ(x) = σ + m·x + ½c·x² with c < 0:
+        `_BEND_STEP` ahead along w (``w_inf`` = max |w_i|), σ(x) = σ + m·x + ½c·x² with c < 0:
 
         * above ``stop_sigma``, the progress before it falls to the stop,
           x = (m + √(m² − 2c(σ − stop)))/(−c);
@@ -439,7 +438,6 @@ class ProgressLimits:
         A direction that grazes a singularity (σ_min rises, turns over and falls) is slowed
         while σ_min still rises, where the slope alone sees no block; inf where σ_min does
         not bend down."""
-        w_inf = max(abs(x) for x in w.tolist())
         h = _BEND_STEP / w_inf
         sigma_h = exact(q + w * h, share=False)[0]
         c = 2.0 * (sigma_h - sigma - slope * h) / (h * h)
@@ -463,6 +461,7 @@ class ProgressLimits:
         if not norm > 0.0:
             return
         ds = 1e-4 / norm  # a 1e-4 rad (or m) joint step along w
+        w_inf = max(abs(x) for x in w.tolist())  # (the largest joint speed per unit progress)
         room = math.inf
         bend_peak = False
         if share > _LOST:  # being lost here: the slope of σ_min at q, and its bend
@@ -472,7 +471,7 @@ class ProgressLimits:
                 room = (sigma - self.stop_sigma) / (2.0 * drop / ds)
             # (below the stop, unless it falls here: the slope already stops it)
             if sigma > self.stop_sigma or not falls:
-                bend = self._bend_room(q, w, exact, sigma, -drop / ds)
+                bend = self._bend_room(q, w, w_inf, exact, sigma, -drop / ds)
                 if bend < room:  # (below the stop: the peak of a rise)
                     room, bend_peak = bend, sigma <= self.stop_sigma
         # the look-ahead reaches as far as a stop at the bounds of a block would need: |w| is
@@ -489,12 +488,11 @@ class ProgressLimits:
         near = sigma <= _FAR_ABOVE * self.stop_sigma
         D = 0.0
         if ahead is not None and room > 0.0 and near:
-            w_inf = max(abs(x) for x in w.tolist())
             D = max(ahead(caps.accel / reach, caps.jerk / reach), _BEND_STEP / w_inf)
         peak = bend_peak
         block_bounds = None
         if D > ds:
-            found = self._room_ahead(q, w, exact, sigma, share, 1.5 * D)
+            found = self._room_ahead(q, w, w_inf, exact, sigma, share, 1.5 * D)
             if found.speed < caps.speed:  # vmax on the way
                 caps.speed = found.speed
                 caps.binding, caps.joint, caps.reason, caps.blocked_by = "velocity", -1, "", ""

@@ -156,10 +156,13 @@ class Servo:
                                   exact=lambda q2, share=True: pr.exact_direction(q2, ap.d, (q, J),
                                                                                   share=share),
                                   ahead=lambda a, j: ap.stopping_progress(dt, a, j))
-            w_rate = None if ap.w_prev is None or self.filter is None else (w - ap.w_prev) / dt  # ẇ
-            # (on a line whose target stayed put: a target that moves starts a line every
-            # period, and ẇ then holds the line's turn as well)
-            w_ahead = w_rate is not None and ap.settled
+            dw = None if ap.w_prev is None or self.filter is None else w - ap.w_prev
+            w_rate = None if dw is None else dw / dt  # ẇ
+            # the filter meets its reference at the end of the period, where the arm's w is
+            # w + ẇ·dt (the progress's velocity stays on the line there, not one period
+            # behind it), on a line whose target stayed put (a target that moves starts a
+            # line every period, and ẇ then holds the line's turn as well)
+            w_end = w + dw if dw is not None and ap.settled else w
             # (the room ahead is measured from the arm; the reference leads it along the line)
             speed = ap.advance(caps, dt, speed_scale=max(0.0, 1.0 - lag / self._lag_max),
                                lead=ap.weighted_dot(e_ref, ap.d))
@@ -168,11 +171,7 @@ class Servo:
                 # period (ṡ₁ with s̈₁), where q + q̇·dt needs the period's mean speed
                 speed = ap.sd
             ap.w_prev = w
-            if w_ahead:
-                # the filter meets its reference at the end of the period, where the arm's w
-                # is w + ẇ·dt (the progress's velocity stays on the line there, not one
-                # period behind it)
-                w = w + w_rate * dt
+            w = w_end  # (the direction sent: the command's progress part and its acceleration)
             if speed != 0.0:
                 # the progress along the line on its own direction w (exact where J is regular),
                 # not the solver's answer for ṡ·d, which a constant damping shrinks and turns

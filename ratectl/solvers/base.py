@@ -347,7 +347,6 @@ def direction_result(J: np.ndarray, d: np.ndarray, w: np.ndarray, *, damping: fl
     return r
 
 
-
 class DirectionTwist:
     """What `Solver.solve_direction_twist` answers for a direction d and a twist ξ on the
     same J, both without limits: the direction's answer ``w`` (n,), ``sigma`` and
@@ -394,6 +393,7 @@ class DirectionTwist:
         fb = self._feedback
         assert fb is not None
         return fb if qd is self.qd else result_with_qd(fb, self._J, xi, qd)
+
 
 def _make_result(qd, J, xi, damping, sigma, method, policy, scale, bound, active, fallback, info):
     achieved = J @ qd
