@@ -27,7 +27,9 @@ only needed by the functions that use them.
 """
 
 import importlib as _importlib
+import warnings as _warnings
 
+from . import compiled as _compiled
 from . import errors, kinematics, spatial
 from .errors import (
     DriverError,
@@ -42,6 +44,13 @@ from .model import DH, MDH, Chain, Joint, robots
 from .model.limits import Limits
 
 __version__ = "0.1.0"
+
+if _stale := _compiled.stale():  # a source checkout whose compiled modules lag their sources
+    _warnings.warn(
+        f"ratectl: the compiled {', '.join(_stale)} {'is' if len(_stale) == 1 else 'are'} older than "
+        "the source and run the old code: rebuild with `pip install -e .`, or delete the compiled "
+        "files (`find ratectl -name '*.so' -delete`) to run the sources as plain Python",
+        RuntimeWarning, stacklevel=2)
 
 # public name -> module that defines it (imported lazily)
 _LAZY_ATTRS = {
@@ -63,7 +72,7 @@ _LAZY_ATTRS = {
     "Execution": "execution",
 }
 _LAZY_MODULES = ("io", "singularity", "solvers", "tasks", "collision", "control", "paths", "planning",
-                 "drivers", "execution", "interop", "viewer", "cli")
+                 "drivers", "execution", "interop", "viewer", "cli", "compiled")
 
 __all__ = [
     "DH", "MDH", "Chain", "Joint", "Limits", "errors", "kinematics", "robots", "spatial",

@@ -17,12 +17,16 @@ over the whole range; no ``arccos`` of an unclipped value is ever taken.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .errors import InputError
+
+#: a rotation or pose as rows of floats (lists or tuples): ``T.tolist()``, a kernel's rows
+Rows = Sequence[Sequence[float]]
 
 __all__ = [
     "skew",
@@ -296,7 +300,7 @@ def so3_exp_rows(x: float, y: float, z: float) -> list[list[float]]:
             [Bxz - A * y, Byz + A * x, 1.0 + B * (z * z - th2)]]
 
 
-def so3_log_rows(R: list[list[float]]) -> tuple[float, float, float, float]:
+def so3_log_rows(R: Rows) -> tuple[float, float, float, float]:
     """`so3_log` of one rotation given as three rows of floats: ``(x, y, z, θ)``, the
     rotation vector and its angle [rad]. The angle is ``atan2(‖vee(R)‖, (tr R − 1)/2)``;
     past ``cos θ < −0.9`` the axis comes from `so3_log`'s symmetric-part branch."""
@@ -316,7 +320,7 @@ def _log_skew(vx: float, vy: float, vz: float, c: float) -> tuple[float, float, 
     return f * vx, f * vy, f * vz, th
 
 
-def rotation_error_rows(Rd: list[list[float]], R: list[list[float]]) -> tuple[float, float, float, float]:
+def rotation_error_rows(Rd: Rows, R: Rows) -> tuple[float, float, float, float]:
     """`so3_log_rows` of ``R_d Rᵀ`` for two rotations given as rows of floats (the rows of
     a pose: a fourth column is ignored): ``(x, y, z, θ)``, the rotation vector that takes R
     to R_d in base axes and its angle [rad] — the rotational part of the pose error. Each
@@ -352,7 +356,7 @@ def pose_error_into(out: np.ndarray, T_desired: np.ndarray, T_actual: np.ndarray
     return pose_error_rows(out, T_desired.tolist(), T_actual.tolist())
 
 
-def pose_error_rows(out: np.ndarray, d: list[list[float]], a: list[list[float]]) -> tuple[float, float]:
+def pose_error_rows(out: np.ndarray, d: Rows, a: Rows) -> tuple[float, float]:
     """`pose_error_into` of two poses given as their first three rows of floats ([R | p],
     a pose's ``tolist()``), written into ``out`` (6,): for a caller that has the rows
     already (a control cycle reads a pose's rows once)."""
@@ -364,7 +368,7 @@ def pose_error_rows(out: np.ndarray, d: list[list[float]], a: list[list[float]])
     return math.sqrt(ex * ex + ey * ey + ez * ez), th
 
 
-def finite_rows(rows: list[list[float]]) -> bool:
+def finite_rows(rows: Rows) -> bool:
     """Whether every entry of the four rows of floats ``rows`` (a 4×4 pose's ``tolist()``)
     is finite: their plain sum is (NaN or inf make it non-finite; an overflow to inf of
     finite values counts as non-finite too)."""
@@ -373,7 +377,7 @@ def finite_rows(rows: list[list[float]]) -> bool:
     return t - t == 0.0
 
 
-def is_rigid_rows(rows: list[list[float]], *, tolerance: float = 1e-6) -> bool:
+def is_rigid_rows(rows: Rows, *, tolerance: float = 1e-6) -> bool:
     """True when the four rows of floats ``rows`` (a 4×4 pose's ``tolist()``) are a rigid
     transform by the test of `rigid_transform_defect` (finite, max|RRᵀ − I| and |det R − 1|
     within ``tolerance``, last row [0, 0, 0, 1]), which says what is wrong when it is not.

@@ -34,7 +34,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("execution",),
     ("interop",),
     ("viewer",),
-    ("cli",),
+    ("cli", "compiled"),
 ]
 RANK = {name: rank for rank, names in enumerate(LAYERS) for name in names}
 TOP = "__init__"  # the package's own __init__ re-exports everything (lazily)

@@ -40,7 +40,8 @@ class SmoothGuard:
         jerk-limited guard (`_jerk_limited_position_guard`) on ``cyc.qd``; the joints it
         stops go to ``cyc.braking``. An approach keeps its direction: the guard's clip
         then scales its whole motion."""
-        reference = None  # the progress reference is not met exactly: the worst case one period ahead
+        # the progress reference is not met exactly: the worst case one period ahead
+        reference: np.ndarray | None = None
         wanted = cyc.qd
         cyc.qd, cyc.braking = self._jerk_limited_position_guard(q, cyc.qd, dt, cyc.flags,
                                                                 cyc.reasons, cyc.active, reference)

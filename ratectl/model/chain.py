@@ -435,7 +435,7 @@ class Chain:
             raise InputError(f"margin must be a finite non-negative distance [rad or m], got "
                              f"{margin!r}", argument="margin", value=margin)
         try:
-            rng = np.random.default_rng(rng)
+            generator = np.random.default_rng(rng)
             shape = (self._n,) if size is None else tuple(int(s) for s in np.atleast_1d(size)) + (self._n,)
         except (TypeError, ValueError) as exc:
             raise InputError(f"random_q: bad size or rng ({exc})", argument="size",
@@ -458,7 +458,7 @@ class Chain:
             raise InputError(f"random_q: size must be non-negative, got {size!r}", argument="size",
                              value=size)
         # lo + (hi − lo)·u can round past hi by an ulp: clip into [lo, hi]
-        return np.minimum(np.maximum(lo + (hi - lo) * rng.random(shape), lo), hi)
+        return np.minimum(np.maximum(lo + (hi - lo) * generator.random(shape), lo), hi)
 
     def __repr__(self) -> str:
         kinds = "".join("RP"[int(p)] for p in self._prismatic)

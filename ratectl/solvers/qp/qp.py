@@ -469,7 +469,8 @@ class QP(Solver):
         """The unconstrained minimiser P⁻¹b (= the DLS solution) if it is feasible, else for a
         box-only problem a few certified primal active-set steps from it; ``(qd, held, status,
         iterations, slack)`` with qd None when neither answers."""
-        qd = held = None
+        qd: np.ndarray | None = None
+        held: Any = None
         status, niter, slack = "", 0, math.inf
         if not (self.shortcut and self._pd):
             return qd, held, status, niter, slack

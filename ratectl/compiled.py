@@ -1,0 +1,76 @@
+"""Which of ratectl's modules run compiled, and whether a compiled module is stale.
+
+An installation compiles the modules of the servo's control cycle, listed in
+``COMPILED_MODULES``, to C extensions with mypyc (see ``setup.py``); every one of them is
+also plain Python, which runs where the compilation was skipped (``RATECTL_PURE_PYTHON=1``
+at install time). Both give the same commands; the compiled cycle is faster.
+
+``modules()`` says, for each listed module, whether the imported one is compiled. In a
+source checkout (an editable install), a compiled module older than its ``.py`` file runs
+the old code: ``import ratectl`` warns then (`stale`), and ``pip install -e .`` rebuilds.
+
+This file is read by ``setup.py`` without importing ratectl: it imports nothing but the
+standard library at module level.
+"""
+
+import importlib as _importlib
+import os as _os
+
+__all__ = ["COMPILED_MODULES", "modules", "stale"]
+
+#: The modules compiled with mypyc, as paths from the project's root: the stage objects of
+#: the control cycle and what they call every period. The classes a user subclasses or
+#: calls with arbitrary inputs (the controller, its input gate, the solvers, the chain,
+#: the command) stay interpreted.
+COMPILED_MODULES: tuple[str, ...] = (
+    "ratectl/spatial.py",
+    "ratectl/model/limits.py",
+    "ratectl/control/approach.py",
+    "ratectl/control/cycle.py",
+    "ratectl/control/halt.py",
+    "ratectl/control/jog.py",
+    "ratectl/control/limiter.py",
+    "ratectl/control/progress.py",
+    "ratectl/control/progress_stage.py",
+    "ratectl/control/servo.py",
+    "ratectl/control/smooth_stage.py",
+    "ratectl/control/smoothing.py",
+    "ratectl/control/solve_stage.py",
+    "ratectl/solvers/qp/active_set.py",
+    "ratectl/solvers/qp/bounds.py",
+)
+
+
+def _name(path: str) -> str:
+    return path[:-3].replace("/", ".")
+
+
+def modules() -> dict[str, bool]:
+    """``{module name: compiled?}`` for every module of `COMPILED_MODULES`, as imported."""
+    out = {}
+    for path in COMPILED_MODULES:
+        m = _importlib.import_module(_name(path))
+        out[_name(path)] = not (m.__file__ or "").endswith(".py")
+    return out
+
+
+def stale(root: str | None = None) -> list[str]:
+    """The compiled modules of a source checkout whose ``.py`` file was changed after they
+    were built (they run the old code); empty for an installed wheel. ``root`` is the
+    directory that holds the ``ratectl`` package (default: this one's parent)."""
+    root = root or _os.path.dirname(_os.path.dirname(_os.path.abspath(__file__)))
+    if not _os.path.isdir(_os.path.join(root, ".git")):
+        return []
+    out = []
+    for path in COMPILED_MODULES:
+        src = _os.path.join(root, path)
+        folder, base = _os.path.split(src)
+        stem = base[:-3] + "."
+        try:
+            built = [f for f in _os.listdir(folder) if f.startswith(stem) and f.endswith((".so", ".pyd"))]
+            if built and _os.path.getmtime(src) > max(_os.path.getmtime(_os.path.join(folder, f))
+                                                     for f in built):
+                out.append(_name(path))
+        except OSError:
+            continue
+    return out

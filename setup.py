@@ -1,0 +1,39 @@
+"""Build: the modules of the servo's control cycle are compiled to C extensions with mypyc.
+
+The project's metadata is in ``pyproject.toml``; this file only adds the compiled modules
+(listed in ``ratectl/compiled.py``). The same Python sources are compiled, not a second
+implementation; every module stays importable as plain Python. Set
+``RATECTL_PURE_PYTHON=1`` when installing to skip the compilation (a machine without a C
+compiler).
+"""
+
+from __future__ import annotations
+
+import os
+import runpy
+import tempfile
+
+from setuptools import setup
+
+ext_modules: list = []
+if os.environ.get("RATECTL_PURE_PYTHON", "").lower() not in ("1", "true", "yes"):
+    from mypyc.build import mypycify
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    modules = runpy.run_path(os.path.join(here, "ratectl", "compiled.py"))["COMPILED_MODULES"]
+    # numpy is left untyped for the compiler, whether or not the build environment has it:
+    # the compiled code then takes any array-like where the source takes one, as the
+    # interpreted code does (no run-time isinstance check on ``np.ndarray`` arguments)
+    config = os.path.join(tempfile.mkdtemp(prefix="ratectl-mypyc-"), "mypy.ini")
+    # (the modules not compiled are type-checked by the project's own mypy run, with numpy
+    # typed; here only the compiled ones must check)
+    names = [m[:-3].replace("/", ".") for m in modules]
+    with open(config, "w", encoding="utf-8") as f:
+        f.write("[mypy]\npython_version = 3.10\nignore_missing_imports = True\n"
+                "[mypy-numpy.*]\nfollow_imports = skip\nfollow_imports_for_stubs = True\n"
+                "[mypy-ratectl.*]\nignore_errors = True\n"
+                + "".join(f"[mypy-{n}]\nignore_errors = False\n" for n in names))
+    ext_modules = mypycify(["--config-file", config, *modules], opt_level="3",
+                           group_name="ratectl._core")
+
+setup(ext_modules=ext_modules)
