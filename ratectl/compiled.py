@@ -19,14 +19,16 @@ import os as _os
 __all__ = ["COMPILED_MODULES", "modules", "stale"]
 
 #: The modules compiled with mypyc, as paths from the project's root: the stage objects of
-#: the control cycle and what they call every period. The classes a user subclasses or
-#: calls with arbitrary inputs (the controller, its input gate, the solvers, the chain,
-#: the command) stay interpreted.
+#: the control cycle and what they call every period. What a user subclasses, passes
+#: duck-typed objects to or calls with arbitrary arguments (the controller, the solvers, the
+#: chain, the command) stays interpreted: compiled code checks the declared types of its
+#: arguments, and these take more than their annotations say.
 COMPILED_MODULES: tuple[str, ...] = (
     "ratectl/spatial.py",
     "ratectl/model/limits.py",
     "ratectl/control/approach.py",
     "ratectl/control/cycle.py",
+    "ratectl/control/gate.py",
     "ratectl/control/halt.py",
     "ratectl/control/jog.py",
     "ratectl/control/limiter.py",

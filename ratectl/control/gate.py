@@ -13,6 +13,7 @@ the last good period (the period a halt on a bad dt brakes over).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -55,7 +56,7 @@ class Gate:
         self.latched = ""
         self.dt_last: float | None = None
 
-    def validate(self, q: ArrayLike, target: ArrayLike | None, twist: ArrayLike | None, dt: float,
+    def validate(self, q: ArrayLike, target: ArrayLike | None, twist: ArrayLike | None, dt: Any,
                  qd_ff: ArrayLike | None, qdd_ff: ArrayLike | None,
                  ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, float,
                              np.ndarray | None, np.ndarray | None]:
