@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from ..arrays import shared_zeros
-from ..model.limits import braking_speed_scalar, stopping_distance
+from ..model.limits import braking_speed_scalar, stopping_distance_scalar
 from ..spatial import rotation_error_rows, so3_exp_rows
 from .cycle import _same_rotation
 from .progress import PLANNED_BRAKE, ProgressCaps
@@ -52,7 +52,7 @@ def _stop_bound(v: float, a: float, brake: float, jerk: float) -> float:
 
 def _stop(v: float, a: float, brake: float, jerk: float) -> float:
     """The distance of the jerk-limited stop from speed ``v`` and acceleration ``a``."""
-    return float(stopping_distance(v, a, brake, jerk, exact_when_braking=True))
+    return stopping_distance_scalar(v, a, brake, jerk, exact_when_braking=True)
 
 
 def stopping_progress(v: float, a: float, brake: float, jerk: float, dt: float) -> float:

@@ -258,6 +258,40 @@ def _braking_stop_distance(v, a0, A, J):
     return np.where(v <= 0.5 * a0 * a0 / J, d_release, d1 + dh + d3)
 
 
+def stopping_distance_scalar(v: float, a: float, amax: float, jmax: float, *,
+                             exact_when_braking: bool = False) -> float:
+    """`stopping_distance` of one joint in plain arithmetic: the same formulas on floats, in
+    the same order (the same number to the last bit), for amax, jmax > 0; without the
+    arrays' cost (a 1-D progress plans its stop with it every period)."""
+    if not (amax > 0.0 and jmax > 0.0 and math.isfinite(amax + jmax + v + a)):  # (NaN, inf: as the arrays)
+        return float(stopping_distance(v, a, amax, jmax, exact_when_braking=exact_when_braking))
+    v = v if v > 0.0 else 0.0
+    A, J = amax, jmax
+    if exact_when_braking and a < 0.0:
+        a0 = a
+        if v <= 0.5 * a0 * a0 / J:  # the brake released at once reaches v = 0 first
+            disc = a0 * a0 - 2.0 * J * v
+            ts = (-a0 - math.sqrt(disc if disc > 0.0 else 0.0)) / J
+            return v * ts + 0.5 * a0 * ts * ts + J * ts**3 / 6.0
+        ap = min(math.sqrt(J * v + 0.5 * a0 * a0), A)
+        x = ap + a0
+        t1 = (x if x > 0.0 else 0.0) / J
+        d1 = v * t1 + 0.5 * a0 * t1 * t1 - J * t1**3 / 6.0
+        v1 = v + a0 * t1 - 0.5 * J * t1 * t1
+        vr = 0.5 * ap * ap / J
+        x = v1 - vr
+        th = (x if x > 0.0 else 0.0) / ap
+        dh = v1 * th - 0.5 * ap * th * th
+        t3 = ap / J
+        d3 = vr * t3 - 0.5 * ap * t3 * t3 + J * t3**3 / 6.0
+        return d1 + dh + d3
+    a = a if a > 0.0 else 0.0
+    lead = v * a / J + a**3 / (3.0 * J * J)
+    w = v + a * a / (2.0 * J)
+    d0 = w * math.sqrt(w / J) if w <= A * A / J else w * w / (2.0 * A) + w * A / (2.0 * J)
+    return lead + d0
+
+
 def braking_speed(d: np.ndarray | float, amax: np.ndarray | float, jmax: np.ndarray | float) -> np.ndarray:
     """The largest speed from which a joint at zero acceleration can still stop within
     the distance ``d`` ≥ 0 under |q̈| ≤ amax, |q⃛| ≤ jmax: the inverse of

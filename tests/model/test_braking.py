@@ -17,6 +17,7 @@ from ratectl.model.limits import (
     braking_speed_scalar,
     speed_toward_limit,
     stopping_distance,
+    stopping_distance_scalar,
 )
 
 dts = st.lists(st.floats(1e-5, 0.05), min_size=1, max_size=60)
@@ -95,3 +96,21 @@ def test_scalar_braking_speeds_are_the_array_formulas(D, dt, a, j):
         braking = float(braking_speed(D, a, j))
     assert braking_speed_any_dt_scalar(D, dt, 2.0 / a) == pytest.approx(any_dt, rel=1e-12, abs=1e-300)
     assert braking_speed_scalar(D, a, j) == pytest.approx(braking, rel=1e-12, abs=1e-300)
+
+
+@settings(max_examples=400, deadline=None)
+@given(v=st.floats(-1.0, 5.0) | st.just(0.0), a_share=st.floats(-1.0, 1.0) | st.just(0.0),
+       A=st.floats(1e-2, 1e3), J=st.floats(1e-1, 1e6), exact=st.booleans())
+def test_the_scalar_stopping_distance_is_the_array_formula_to_the_last_bit(v, a_share, A, J, exact):
+    """`stopping_distance_scalar` (a progress plans its stop with it every period) gives the
+    array form's number exactly, braking or not, from rest, and with an acceleration at the
+    bound; non-positive or absent bounds go through the array form."""
+    a = a_share * A
+    with np.errstate(over="ignore", invalid="ignore"):
+        expected = float(stopping_distance(v, a, A, J, exact_when_braking=exact))
+    assert stopping_distance_scalar(v, a, A, J, exact_when_braking=exact) == expected
+    for bad_A, bad_J in ((0.0, J), (A, math.inf)):
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            ref = float(stopping_distance(v, a, bad_A, bad_J, exact_when_braking=exact))
+            got = stopping_distance_scalar(v, a, bad_A, bad_J, exact_when_braking=exact)
+        assert got == ref or (math.isnan(got) and math.isnan(ref))
