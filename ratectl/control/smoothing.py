@@ -42,6 +42,11 @@ def _limit_array(value, n: int, name: str) -> np.ndarray:
     return a
 
 
+def _floats(x: Any) -> list[float]:
+    """An (n,) array (or sequence) of numbers as a list of Python floats."""
+    return x.tolist() if type(x) is np.ndarray else [float(v) for v in x]
+
+
 class VelocityFilter:
     """Online jerk-limited velocity filter (Ruckig velocity interface), one per control loop.
 
@@ -76,8 +81,11 @@ class VelocityFilter:
         self._vmax_list = self.vmax.tolist()
         # targets within vmax·(1 − 1e-7): Ruckig's integration ends a few 1e-9 above a target
         # velocity reached at the limit itself
-        self._vtop = self.vmax * (1.0 - 1e-7)
-        self._neg_vmax = -self._vtop
+        # (the per-period arithmetic runs on Python floats, joint by joint: lists of the limits)
+        self._vtop = (self.vmax * (1.0 - 1e-7)).tolist()
+        self._neg_vmax = [-x for x in self._vtop]
+        self._amax_list = self.amax.tolist()
+        self._jmax_list = self.jmax.tolist()
         self._otg = ruckig.Ruckig(self.dof, dt)
         self._inp = ruckig.InputParameter(self.dof)
         self._out = ruckig.OutputParameter(self.dof)
@@ -95,8 +103,8 @@ class VelocityFilter:
         self._ok = (ruckig.Result.Working, ruckig.Result.Finished)
         self._per_dof = False
         self._no_sync = [ruckig.Synchronization.No] * self.dof
-        self._zeros = np.zeros(self.dof)
-        self._half_inv_j = 0.5 / self.jmax
+        self._zeros = [0.0] * self.dof
+        self._half_inv_j = (0.5 / self.jmax).tolist()
         self._traj: Any = None  # Ruckig's whole trajectory, made on a halt's first use
         self.reset()
 
@@ -114,12 +122,14 @@ class VelocityFilter:
         """The largest target acceleration: amax less one period of jerk, jmax·dt (at most
         half of amax), so that a joint off a reference line braking or accelerating at the
         limit can still join it (at amax itself the line leaves it no room at all)."""
-        self._atop = self.amax - np.minimum(self.jmax * dt, 0.5 * self.amax)
+        self._atop = (self.amax - np.minimum(self.jmax * dt, 0.5 * self.amax)).tolist()
 
     def reset(self, qd: ArrayLike | None = None, qdd: ArrayLike | None = None) -> None:
         """Set the filter state (default: at rest)."""
-        self._v = np.zeros(self.dof) if qd is None else np.array(qd, dtype=float).reshape(self.dof)
-        self._a = np.zeros(self.dof) if qdd is None else np.array(qdd, dtype=float).reshape(self.dof)
+        self._v: list[float] = [0.0] * self.dof if qd is None else \
+            np.array(qd, dtype=float).reshape(self.dof).tolist()
+        self._a: list[float] = [0.0] * self.dof if qdd is None else \
+            np.array(qdd, dtype=float).reshape(self.dof).tolist()
 
     def _calculate(self):
         """One Ruckig update; a RuckigError exception (the Python binding raises some
@@ -131,11 +141,11 @@ class VelocityFilter:
 
     @property
     def velocity(self) -> np.ndarray:
-        return self._v.copy()
+        return np.array(self._v)
 
     @property
     def acceleration(self) -> np.ndarray:
-        return self._a.copy()
+        return np.array(self._a)
 
     def update(self, q: np.ndarray, qd_target: np.ndarray, qdd_target: np.ndarray | None = None, *,
                independent: np.ndarray | None = None):
@@ -168,9 +178,14 @@ class VelocityFilter:
         v0, a0 = self._v, self._a
         # within ±vmax, less what the present acceleration still adds while it ramps down at
         # jmax (a²/(2·jmax)): a target at vmax met with a > 0 would pass it
-        ramp = a0 * a0 / (2.0 * self.jmax)
-        vt = np.minimum(np.maximum(qd_target, self._neg_vmax + np.where(a0 < 0.0, ramp, 0.0)),
-                        self._vtop - np.where(a0 > 0.0, ramp, 0.0))
+        vt: list[float] = []
+        for v, a, j, lo, hi in zip(_floats(qd_target), a0, self._jmax_list, self._neg_vmax, self._vtop,
+                                   strict=True):
+            ramp = a * a / (2.0 * j)
+            lo = lo + (ramp if a < 0.0 else 0.0)
+            hi = hi - (ramp if a > 0.0 else 0.0)
+            v = v if v >= lo else lo
+            vt.append(v if v <= hi else hi)
         # a reference (a velocity with its acceleration) is joined by each joint on its own: one
         # that cannot join it soon (a line braking at amax, the joint above it) then stretches
         # no other joint's motion; a velocity alone is met by all joints together
@@ -178,14 +193,19 @@ class VelocityFilter:
         if qdd_target is None:
             ta = self._zeros
         else:
-            ta = self._within_room(vt, np.minimum(np.maximum(qdd_target, -self._atop), self._atop))
-        own = alone = None
+            clipped = []
+            for a, t in zip(_floats(qdd_target), self._atop, strict=True):
+                a = a if a >= -t else -t
+                clipped.append(a if a <= t else t)
+            ta = self._within_room(vt, clipped)
+        own: list[bool] | None = None
+        alone = None
         if independent is not None and any(independent):
             if all(independent):  # every joint on its own (a halt), to rest acceleration
                 sync = False
                 ta = self._zeros
             else:
-                own = np.asarray(independent, dtype=bool)
+                own = [bool(x) for x in independent]
                 alone = self._one_period_on_their_own(vt, ta, own)
                 # the others, with the independent joints kept at rest on their lines, so that
                 # they do not stretch a synchronised motion
@@ -195,8 +215,8 @@ class VelocityFilter:
             res = self._calculate_relative(vt, ta, sync=False, still=own)
         if res not in self._ok:
             raise SolverError(f"Ruckig velocity filter failed: {res}", status=res,
-                              problem={"target_velocity": vt, "target_acceleration": ta,
-                                       "velocity": v0, "acceleration": a0})
+                              problem={"target_velocity": np.array(vt), "target_acceleration": np.array(ta),
+                                       "velocity": np.array(v0), "acceleration": np.array(a0)})
         q1, v1, a1 = self._absolute(vt, ta)
         if not sync:
             # a joint that joins a line pushing outward from below, faster than the line, would
@@ -204,21 +224,23 @@ class VelocityFilter:
             # line itself being within it): it joins the flat line at the target velocity
             # instead, whose time-optimal motion passes no higher than the present state's own
             # ramp |q̇₀| + q̈₀²/(2·jmax) or the target, both within vmax
-            ramp1 = np.where(v1 * a1 > 0.0, a1 * a1, 0.0) * self._half_inv_j
-            over = (np.abs(v1) + ramp1 > self.vmax) & (ta != 0.0)
-            if own is not None:
-                over &= ~own
-            if over.any():
-                ta = np.where(over, 0.0, ta)
+            over = [(abs(v) + (a * a if v * a > 0.0 else 0.0) * h > vm) and t != 0.0
+                    and not (own is not None and own[i])
+                    for i, (v, a, h, vm, t) in enumerate(zip(v1, a1, self._half_inv_j, self._vmax_list, ta,
+                                                             strict=True))]
+            if any(over):
+                ta = [0.0 if o else t for o, t in zip(over, ta, strict=True)]
                 res = self._calculate_relative(vt, ta, sync=False, still=own)
                 if res not in self._ok:
                     raise SolverError(f"Ruckig velocity filter failed: {res}", status=res,
-                                      problem={"target_velocity": vt, "velocity": v0, "acceleration": a0})
+                                      problem={"target_velocity": np.array(vt), "velocity": np.array(v0),
+                                               "acceleration": np.array(a0)})
                 q1, v1, a1 = self._absolute(vt, ta)
         if own is not None and alone is not None:
-            q1, v1, a1 = (np.where(own, x_alone, x) for x_alone, x in zip(alone, (q1, v1, a1), strict=True))
+            q1, v1, a1 = ([xa if o else x for o, xa, x in zip(own, x_alone, x_all, strict=True)]
+                          for x_alone, x_all in zip(alone, (q1, v1, a1), strict=True))
         self._v, self._a = v1, a1
-        return q1, v1, a1
+        return np.array(q1), np.array(v1), np.array(a1)
 
     def synchronised_stop_passes(self, q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
         """The joints whose part of the time-synchronised stop from the filter's state at
@@ -241,14 +263,14 @@ class VelocityFilter:
         lo = np.array([e.min for e in ext])
         return (hi > np.maximum(upper, q)) | (lo < np.minimum(lower, q))
 
-    def _calculate_relative(self, vt: np.ndarray, ta: np.ndarray, *, sync: bool,
-                            still: np.ndarray | None = None):
+    def _calculate_relative(self, vt: list[float], ta: list[float], *, sync: bool,
+                            still: list[bool] | None = None):
         """Ruckig's update in the frame of the reference line (`_set_relative`)."""
         self._set_relative(vt, ta, sync=sync, still=still)
         return self._calculate()
 
-    def _set_relative(self, vt: np.ndarray, ta: np.ndarray, *, sync: bool,
-                      still: np.ndarray | None = None) -> None:
+    def _set_relative(self, vt: list[float], ta: list[float], *, sync: bool,
+                      still: list[bool] | None = None) -> None:
         """Ruckig's input in the frame of the reference line v_r(t) = vt + ta·(t − dt):
         from e = q̇ − v_r(0), ė = q̈ − ta to rest, with ė within [−amax − ta, amax − ta];
         the joints time-synchronised or not (``sync``). Joints in ``still`` (a mask) are
@@ -258,35 +280,47 @@ class VelocityFilter:
             inp.per_dof_synchronization = None if sync else self._no_sync
             self._per_dof = not sync
         dt = self.dt
-        e, de = self._v - vt + ta * dt, self._a - ta
-        hi, lo = self.amax - ta, -self.amax - ta
-        if still is not None:
-            e, de = np.where(still, 0.0, e), np.where(still, 0.0, de)
-            hi, lo = np.where(still, self.amax, hi), np.where(still, -self.amax, lo)
-        inp.current_velocity = e.tolist()
-        inp.current_acceleration = de.tolist()
-        inp.max_acceleration = hi.tolist()
-        inp.min_acceleration = lo.tolist()
+        amax = self._amax_list
+        if still is None:
+            inp.current_velocity = [v - r + t * dt for v, r, t in zip(self._v, vt, ta, strict=True)]
+            inp.current_acceleration = [a - t for a, t in zip(self._a, ta, strict=True)]
+            inp.max_acceleration = [m - t for m, t in zip(amax, ta, strict=True)]
+            inp.min_acceleration = [-m - t for m, t in zip(amax, ta, strict=True)]
+            return
+        inp.current_velocity = [0.0 if s else v - r + t * dt
+                                for s, v, r, t in zip(still, self._v, vt, ta, strict=True)]
+        inp.current_acceleration = [0.0 if s else a - t for s, a, t in zip(still, self._a, ta, strict=True)]
+        inp.max_acceleration = [m if s else m - t for s, m, t in zip(still, amax, ta, strict=True)]
+        inp.min_acceleration = [-m if s else -m - t for s, m, t in zip(still, amax, ta, strict=True)]
 
-    def _absolute(self, vt: np.ndarray, ta: np.ndarray):
+    def _absolute(self, vt: list[float], ta: list[float]) -> tuple[list[float], list[float], list[float]]:
         """``(q, q̇, q̈)`` at the end of the period from Ruckig's answer in the reference's
         frame (`_calculate_relative`): q̇ = v_r + e, q̈ = ta + ė, and q the start plus
         ∫e dt (Ruckig's position) plus ∫v_r dt = vt·dt − ta·dt²/2."""
         out = self._out
         dt = self.dt
-        q1 = np.array(out.new_position) + vt * dt - ta * (0.5 * dt * dt)
-        return q1, np.array(out.new_velocity) + vt, np.array(out.new_acceleration) + ta
+        h = 0.5 * dt * dt
+        q1 = [p + r * dt - t * h for p, r, t in zip(out.new_position, vt, ta, strict=True)]
+        v1 = [e + r for e, r in zip(out.new_velocity, vt, strict=True)]
+        a1 = [e + t for e, t in zip(out.new_acceleration, ta, strict=True)]
+        return q1, v1, a1
 
-    def _within_room(self, vt: np.ndarray, ta: np.ndarray) -> np.ndarray:
+    def _within_room(self, vt: list[float], ta: list[float]) -> list[float]:
         """Target accelerations that keep the filter below vmax: |a| ≤ √(2·jmax·(vmax − |v|)).
         Pushing outward, the motion must still stop accelerating before vmax; pulling back
         (a target reached from below with a braking acceleration), the time-optimal motion
         passes through a = 0 at |v| + a²/(2·jmax) before it brakes, which must not pass vmax
         either (a non-zero target acceleration at the velocity limit overran it)."""
-        room = np.sqrt(2.0 * self.jmax * np.maximum(self.vmax - np.abs(vt), 0.0))
-        return np.sign(ta) * np.minimum(np.abs(ta), room)
+        out = []
+        for v, t, j, vm in zip(vt, ta, self._jmax_list, self._vmax_list, strict=True):
+            x = vm - abs(v)
+            room = math.sqrt(2.0 * j * (x if x > 0.0 else 0.0))
+            at = abs(t)
+            m = room if room < at else at
+            out.append(m if t > 0.0 else (-m if t < 0.0 else 0.0))
+        return out
 
-    def _one_period_on_their_own(self, vt: np.ndarray, ta: np.ndarray, independent: np.ndarray):
+    def _one_period_on_their_own(self, vt: list[float], ta: list[float], independent: list[bool]):
         """The ``independent`` joints' own time-optimal motion to their target velocities at
         rest acceleration (no synchronisation): ``(q, q̇, q̈)`` one period later (only those
         joints' rows mean anything), or None if Ruckig finds none. `update` takes the
@@ -294,8 +328,8 @@ class VelocityFilter:
         time-synchronised joints to the duration of the whole motion, unsynchronised joints
         included, so a single update with a braking joint unsynchronised would stretch every
         other joint to its stop and lose their targets)."""
-        at_rest = np.where(independent, 0.0, ta)
-        res = self._calculate_relative(vt, at_rest, sync=False, still=~independent)
+        at_rest = [0.0 if i else t for i, t in zip(independent, ta, strict=True)]
+        res = self._calculate_relative(vt, at_rest, sync=False, still=[not i for i in independent])
         if res not in self._ok:
             return None
         return self._absolute(vt, at_rest)
