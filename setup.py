@@ -9,6 +9,7 @@ compiler).
 
 from __future__ import annotations
 
+import json
 import os
 import runpy
 import tempfile
@@ -20,7 +21,12 @@ if os.environ.get("RATECTL_PURE_PYTHON", "").lower() not in ("1", "true", "yes")
     from mypyc.build import mypycify
 
     here = os.path.dirname(os.path.abspath(__file__))
-    modules = runpy.run_path(os.path.join(here, "ratectl", "compiled.py"))["COMPILED_MODULES"]
+    compiled = runpy.run_path(os.path.join(here, "ratectl", "compiled.py"))
+    modules = compiled["COMPILED_MODULES"]
+    # what is compiled, by content: `ratectl.compiled.stale` tells an edited source from a
+    # touched one in a checkout (not part of the package)
+    with open(os.path.join(here, compiled["SOURCES_RECORD"]), "w", encoding="utf-8") as f:
+        json.dump({m: compiled["source_digest"](os.path.join(here, m)) for m in modules}, f, indent=1)
     # numpy is left untyped for the compiler, whether or not the build environment has it:
     # the compiled code then takes any array-like where the source takes one, as the
     # interpreted code does (no run-time isinstance check on ``np.ndarray`` arguments)

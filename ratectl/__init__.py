@@ -47,9 +47,11 @@ __version__ = "0.1.0"
 
 if _stale := _compiled.stale():  # a source checkout whose compiled modules lag their sources
     _warnings.warn(
-        f"ratectl: the compiled {', '.join(_stale)} {'is' if len(_stale) == 1 else 'are'} older than "
-        "the source and run the old code: rebuild with `pip install -e .`, or delete the compiled "
-        "files (`find ratectl -name '*.so' -delete`) to run the sources as plain Python",
+        f"ratectl: the compiled {', '.join(_stale)} "
+        + ("was built from an older source and runs" if len(_stale) == 1 else
+           "were built from older sources and run")
+        + " the old code: rebuild with `pip install -e .`, or delete the compiled files "
+        "(`find ratectl -name '*.so' -delete`) to run the sources as plain Python",
         RuntimeWarning, stacklevel=2)
 
 # public name -> module that defines it (imported lazily)

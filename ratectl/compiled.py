@@ -13,10 +13,12 @@ This file is read by ``setup.py`` without importing ratectl: it imports nothing 
 standard library at module level.
 """
 
+import hashlib as _hashlib
 import importlib as _importlib
+import json as _json
 import os as _os
 
-__all__ = ["COMPILED_MODULES", "modules", "stale"]
+__all__ = ["COMPILED_MODULES", "SOURCES_RECORD", "modules", "source_digest", "stale"]
 
 #: The modules compiled with mypyc, as paths from the project's root: the stage objects of
 #: the control cycle and what they call every period. What a user subclasses, passes
@@ -56,13 +58,28 @@ def modules() -> dict[str, bool]:
     return out
 
 
+#: Written by the build beside the sources it compiled (a source checkout): ``{path: the
+#: SHA-256 of the source compiled}``, so that a file only touched (a branch switched back
+#: and forth) is not taken for an edit.
+SOURCES_RECORD = "ratectl/_compiled_sources.json"
+
+
+def source_digest(path: str) -> str:
+    """The SHA-256 of a file's bytes (hex), as `SOURCES_RECORD` holds it."""
+    with open(path, "rb") as f:
+        return _hashlib.sha256(f.read()).hexdigest()
+
+
 def stale(root: str | None = None) -> list[str]:
     """The compiled modules of a source checkout whose ``.py`` file was changed after they
-    were built (they run the old code); empty for an installed wheel. ``root`` is the
-    directory that holds the ``ratectl`` package (default: this one's parent)."""
+    were built (they run the old code); empty for an installed wheel. A source newer than
+    its compiled file is compared with the digest the build recorded (`SOURCES_RECORD`):
+    the same bytes are not stale. ``root`` is the directory that holds the ``ratectl``
+    package (default: this one's parent)."""
     root = root or _os.path.dirname(_os.path.dirname(_os.path.abspath(__file__)))
     if not _os.path.isdir(_os.path.join(root, ".git")):
         return []
+    recorded: dict[str, str] | None = None
     out = []
     for path in COMPILED_MODULES:
         src = _os.path.join(root, path)
@@ -70,8 +87,16 @@ def stale(root: str | None = None) -> list[str]:
         stem = base[:-3] + "."
         try:
             built = [f for f in _os.listdir(folder) if f.startswith(stem) and f.endswith((".so", ".pyd"))]
-            if built and _os.path.getmtime(src) > max(_os.path.getmtime(_os.path.join(folder, f))
-                                                     for f in built):
+            if not built or _os.path.getmtime(src) <= max(_os.path.getmtime(_os.path.join(folder, f))
+                                                          for f in built):
+                continue
+            if recorded is None:
+                try:
+                    with open(_os.path.join(root, SOURCES_RECORD), encoding="utf-8") as f:
+                        recorded = dict(_json.load(f))
+                except (OSError, ValueError, TypeError):
+                    recorded = {}
+            if recorded.get(path) != source_digest(src):
                 out.append(_name(path))
         except OSError:
             continue

@@ -130,6 +130,22 @@ def test_a_compiled_module_older_than_its_source_is_reported(tmp_path):
     os.utime(src, (now, now))
     assert rc.compiled.stale(str(tmp_path)) == []          # not a checkout: an installed wheel
     (tmp_path / ".git").mkdir()
+    assert rc.compiled.stale(str(tmp_path)) == ["ratectl.control.servo"]   # no record: by time
+    # the build's record of what it compiled: the same bytes, only touched, are not stale
+    record = tmp_path / rc.compiled.SOURCES_RECORD
+    record.write_text(json.dumps({"ratectl/control/servo.py": rc.compiled.source_digest(str(src))}))
+    assert rc.compiled.stale(str(tmp_path)) == []
+    src.write_text("x = 1\n")                              # edited after the build
+    os.utime(src, (now, now))
     assert rc.compiled.stale(str(tmp_path)) == ["ratectl.control.servo"]
     os.utime(built, (now + 10, now + 10))                   # rebuilt
     assert rc.compiled.stale(str(tmp_path)) == []
+
+
+def test_the_build_records_the_sources_it_compiled():
+    """In this checkout, the record written by the build holds every compiled module."""
+    root = PACKAGE.parent
+    if PURE or not (root / ".git").exists() or not any(rc.compiled.modules().values()):
+        pytest.skip("not a compiled source checkout")
+    recorded = json.loads((root / rc.compiled.SOURCES_RECORD).read_text())
+    assert sorted(recorded) == sorted(rc.compiled.COMPILED_MODULES)
