@@ -68,6 +68,7 @@ _LOST = 0.2  # share of |J⁺d|² in the weakest direction above which a directi
 _AHEAD_STEPS = 4  # at most this many steps of the singularity look-ahead along the direction's joint path
 _FAR_ABOVE = 2.0  # the look-ahead runs below this many times stop_sigma
 _AHEAD_JOINT_STEP = 0.05  # [rad or m] a look-ahead step moves a joint at most this far (w at q)
+_AT_STOP = 1e-9  # [rad or m]: a joint that may move less than this in a period stands at its stop
 PLANNED_BRAKE = 0.5  # a stop is planned at this share of the progress's acceleration bound (approach, jog)
 _SIGMA_NOISE = 1e-10  # a change of σ_min over the look-ahead step below this is rounding
 _BEND_STEP = 0.02  # [rad or m] the joint step (w at q) over which the bend of σ_min ahead is measured
@@ -313,7 +314,9 @@ class ProgressLimits:
         if p_min < speed:
             speed, binding, joint = p_min, "position", jp
             blocked_by = "position" if speed <= 0.0 else ""
-            reason = self._limit_reason(wl, jp, at=speed <= 0.0)
+            # (at its stop point once the joint may move less than _AT_STOP this period: the
+            # bound of an arm at rest there is a creep of D/dt, not a motion toward the limit)
+            reason = self._limit_reason(wl, jp, at=speed * abs(wl[jp]) * dt <= _AT_STOP)
         caps = ProgressCaps(speed=speed, accel=min(accel, _UNBOUNDED), jerk=min(jerk, _UNBOUNDED),
                             binding=binding, blocked_by=blocked_by, joint=joint, reason=reason,
                             free_speed=free_speed)

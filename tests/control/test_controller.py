@@ -181,6 +181,24 @@ def test_joint_position_limit_holds(ur5e):
     assert q2[2] > ur5e.upper[2] - 2e-3
 
 
+@pytest.mark.parametrize("smoothing", [False, True])
+@pytest.mark.parametrize("dt", [1e-3, 4e-3])
+def test_a_jog_at_rest_at_a_joint_limit_says_it_is_there(ur5e, dt, smoothing):
+    """A jog that has come to rest 1 mrad before a joint's limit says the joint is at its
+    limit, not that it is braking toward it (its bound there is a creep of ~1e-9 rad per
+    period): the same words with and without smoothing, at any period."""
+    ctrl = rc.ResolvedRateController(ur5e, smoothing=smoothing)
+    q = np.array([0.3, -1.3, 1.6, -1.9, -1.2, ur5e.upper[5] - 0.3])
+    for _ in range(int(3.0 / dt)):
+        z_tool = ur5e.fk(q)[:3, 2]
+        cmd = ctrl.step(q, twist=np.r_[0.0, 0.0, 0.0, 2.0 * z_tool], dt=dt)  # wrist 3 turns alone
+        q = cmd.q_next
+    assert np.max(np.abs(cmd.qd)) < 1e-6
+    assert cmd.status == "joint-limit"
+    assert cmd.reason == f"joint {ur5e.joint_names[5]!r} is at its upper limit"
+    assert 0.9e-3 < ur5e.upper[5] - q[5] < 1.1e-3
+
+
 def test_non_finite_input_halts_safely_and_latches(ur5e):
     ctrl = rc.ResolvedRateController(ur5e)
     dt = 2e-3
