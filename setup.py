@@ -12,21 +12,35 @@ from __future__ import annotations
 import json
 import os
 import runpy
+import sys
 import tempfile
 
 from setuptools import setup
+from setuptools.command.build_ext import build_ext
 
+here = os.path.dirname(os.path.abspath(__file__))
+compiled = runpy.run_path(os.path.join(here, "ratectl", "compiled.py"))
+modules = compiled["COMPILED_MODULES"]
+
+
+class BuildExtRecordingSources(build_ext):
+    """build_ext, then the record of what it compiled, by content (`ratectl.compiled.stale`
+    tells an edited source from a touched one in a checkout; not part of the package)."""
+
+    def run(self) -> None:
+        super().run()
+        with open(os.path.join(here, compiled["SOURCES_RECORD"]), "w", encoding="utf-8") as f:
+            json.dump({m: compiled["source_digest"](os.path.join(here, m)) for m in modules}, f, indent=1)
+
+
+# pip asks for the metadata first (dist_info / egg_info): the extensions are not needed for
+# it, and generating their C code takes a quarter of the build
+metadata_only = bool({"dist_info", "egg_info"} & set(sys.argv)) and not (
+    {"build", "build_ext", "bdist_wheel", "editable_wheel", "install", "develop"} & set(sys.argv))
 ext_modules: list = []
-if os.environ.get("RATECTL_PURE_PYTHON", "").lower() not in ("1", "true", "yes"):
+if os.environ.get("RATECTL_PURE_PYTHON", "").lower() not in ("1", "true", "yes") and not metadata_only:
     from mypyc.build import mypycify
 
-    here = os.path.dirname(os.path.abspath(__file__))
-    compiled = runpy.run_path(os.path.join(here, "ratectl", "compiled.py"))
-    modules = compiled["COMPILED_MODULES"]
-    # what is compiled, by content: `ratectl.compiled.stale` tells an edited source from a
-    # touched one in a checkout (not part of the package)
-    with open(os.path.join(here, compiled["SOURCES_RECORD"]), "w", encoding="utf-8") as f:
-        json.dump({m: compiled["source_digest"](os.path.join(here, m)) for m in modules}, f, indent=1)
     # numpy is left untyped for the compiler, whether or not the build environment has it:
     # the compiled code then takes any array-like where the source takes one, as the
     # interpreted code does (no run-time isinstance check on ``np.ndarray`` arguments)
@@ -42,4 +56,4 @@ if os.environ.get("RATECTL_PURE_PYTHON", "").lower() not in ("1", "true", "yes")
     ext_modules = mypycify(["--config-file", config, *modules], opt_level="3",
                            group_name="ratectl._core")
 
-setup(ext_modules=ext_modules)
+setup(ext_modules=ext_modules, cmdclass={"build_ext": BuildExtRecordingSources})
