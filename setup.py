@@ -29,6 +29,8 @@ class BuildExtRecordingSources(build_ext):
 
     def run(self) -> None:
         super().run()
+        if not (self.extensions and (self.inplace or getattr(self, "editable_mode", False))):
+            return  # (only the compiled files beside the sources have their record there)
         with open(os.path.join(here, compiled["SOURCES_RECORD"]), "w", encoding="utf-8") as f:
             json.dump({m: compiled["source_digest"](os.path.join(here, m)) for m in modules}, f, indent=1)
 
