@@ -17,6 +17,7 @@ import tempfile
 
 from setuptools import setup
 from setuptools.command.build_ext import build_ext
+from setuptools.errors import CCompilerError, CompileError, ExecError, LinkError, PlatformError
 
 here = os.path.dirname(os.path.abspath(__file__))
 compiled = runpy.run_path(os.path.join(here, "ratectl", "compiled.py"))
@@ -28,7 +29,14 @@ class BuildExtRecordingSources(build_ext):
     tells an edited source from a touched one in a checkout; not part of the package)."""
 
     def run(self) -> None:
-        super().run()
+        try:
+            super().run()
+        except (CCompilerError, CompileError, ExecError, LinkError, PlatformError) as exc:
+            raise SystemExit(
+                f"ratectl: compiling the control cycle with mypyc failed ({exc}). It needs a C "
+                "compiler and the Python headers (Debian: apt-get install gcc python3-dev). To "
+                "install the same code as plain Python instead (slower per cycle), set "
+                "RATECTL_PURE_PYTHON=1, e.g. RATECTL_PURE_PYTHON=1 pip install -e .") from exc
         if not (self.extensions and (self.inplace or getattr(self, "editable_mode", False))):
             return  # (only the compiled files beside the sources have their record there)
         with open(os.path.join(here, compiled["SOURCES_RECORD"]), "w", encoding="utf-8") as f:
