@@ -6,16 +6,16 @@ also plain Python, which runs where the compilation was skipped (``RATECTL_PURE_
 at install time). Both give the same commands; the compiled cycle is faster.
 
 ``modules()`` says, for each listed module, whether the imported one is compiled. In a
-source checkout (an editable install), a compiled module older than its ``.py`` file runs
-the old code: ``import ratectl`` warns then (`stale`), and ``pip install -e .`` rebuilds.
+source checkout (an editable install), a compiled module built from other bytes than its
+``.py`` file now holds runs the old code: ``import ratectl`` warns then (`stale`), and
+``pip install -e .`` rebuilds.
 
 This file is read by ``setup.py`` without importing ratectl: it imports nothing but the
-standard library at module level.
+standard library at module level (and `hashlib`, `json` only where a source is newer than
+its compiled file: ``import ratectl`` runs `stale` every time).
 """
 
-import hashlib as _hashlib
 import importlib as _importlib
-import json as _json
 import os as _os
 
 __all__ = ["COMPILED_MODULES", "SOURCES_RECORD", "modules", "source_digest", "stale"]
@@ -66,8 +66,10 @@ SOURCES_RECORD = "ratectl/_compiled_sources.json"
 
 def source_digest(path: str) -> str:
     """The SHA-256 of a file's bytes (hex), as `SOURCES_RECORD` holds it."""
+    import hashlib
+
     with open(path, "rb") as f:
-        return _hashlib.sha256(f.read()).hexdigest()
+        return hashlib.sha256(f.read()).hexdigest()
 
 
 def stale(root: str | None = None) -> list[str]:
@@ -80,20 +82,25 @@ def stale(root: str | None = None) -> list[str]:
     if not _os.path.isdir(_os.path.join(root, ".git")):
         return []
     recorded: dict[str, str] | None = None
+    listed: dict[str, list[str]] = {}  # each folder's compiled files, listed once
     out = []
     for path in COMPILED_MODULES:
         src = _os.path.join(root, path)
         folder, base = _os.path.split(src)
         stem = base[:-3] + "."
         try:
-            built = [f for f in _os.listdir(folder) if f.startswith(stem) and f.endswith((".so", ".pyd"))]
+            if folder not in listed:
+                listed[folder] = [f for f in _os.listdir(folder) if f.endswith((".so", ".pyd"))]
+            built = [f for f in listed[folder] if f.startswith(stem)]
             if not built or _os.path.getmtime(src) <= max(_os.path.getmtime(_os.path.join(folder, f))
                                                           for f in built):
                 continue
             if recorded is None:
+                import json
+
                 try:
                     with open(_os.path.join(root, SOURCES_RECORD), encoding="utf-8") as f:
-                        recorded = dict(_json.load(f))
+                        recorded = dict(json.load(f))
                 except (OSError, ValueError, TypeError):
                     recorded = {}
             if recorded.get(path) != source_digest(src):
