@@ -174,7 +174,7 @@ class VelocityFilter:
                 braking for its position limit must brake as hard as it can).
         """
         inp = self._inp
-        inp.current_position = q.tolist() if type(q) is np.ndarray else list(q)
+        inp.current_position = _floats(q)
         v0, a0 = self._v, self._a
         # within ±vmax, less what the present acceleration still adds while it ramps down at
         # jmax (a²/(2·jmax)): a target at vmax met with a > 0 would pass it
