@@ -143,11 +143,15 @@ class Jog:
         # a block ahead: a singularity's σ_min of the stop, or a joint's position limit less
         # the jog's margin inside it
         room = caps.room - caps.room_margin if by else math.inf
-        if self._block is not None and (room == math.inf or caps.room_peak):
+        if self._block is not None and (by != self._block_by or caps.room_peak):
             # a stop planned before, whose block this period's look-ahead no longer sees (a
-            # stopping distance that shrank as the stop went on), or a peak of σ_min seen
-            # again (its estimate from nearer is no earlier): it ends there, at rest
-            room, by = min(room, self._block - plan.s), self._block_by
+            # stopping distance that shrank as the stop went on; no block, or only another
+            # kind, such as a joint's far limit, while the stop is for a singularity), or a
+            # peak of σ_min seen again (its estimate from nearer is no earlier): it ends
+            # there, at rest, unless this period's block is nearer
+            planned = self._block - plan.s
+            if planned <= room:
+                room, by = planned, self._block_by
         if room < math.inf and (self._block is not None or self._stop_due(caps, by, room, dt)):
             # the stop is planned there, as the approach plans its own (`Progress`, at the
             # block's bounds; late before a singularity, it runs on a little past it), and

@@ -262,3 +262,30 @@ def test_a_smoothed_jog_in_tool_axes_follows_the_same_line_as_in_base_axes():
     assert np.linalg.norm(paths[1][-1] - paths[1][0]) > 0.1  # it moved
     assert np.max(np.linalg.norm(paths[0] - paths[1], axis=1)) <= 0.05e-3
     assert max(turns) <= 0.01, turns
+
+
+@pytest.mark.parametrize("dt", [1e-3, 2e-3, 4e-3])
+def test_a_smoothed_jog_keeps_its_stop_before_a_singularity_with_a_joint_limit_far_ahead(dt):
+    """example-robot-data's UR10 (its URDF, amax and jmax added), smoothed, a twist that
+    drives wrist 2 toward 0 (its wrist singularity), its lower limit −2π far beyond: the jog
+    plans its stop before the singularity and keeps it when a period's look-ahead sees only
+    that far limit. It took the limit for the block instead, said "joint 'wrist_2_joint'
+    braking toward its lower limit" with every joint more than 0.5 rad from its limits,
+    and planned the stop anew a few periods later."""
+    from . import servo_arms
+
+    if servo_arms.robots_dir() is None:
+        pytest.skip("example-robot-data is not installed")
+    arm = servo_arms.urdf_arm("ur10")
+    q = np.array([0.3, -1.3, 1.6, -1.9, 0.25, 0.2])
+    J = arm.jacobian(q)
+    xi = -J[:, 4] / np.linalg.norm(J[:3, 4]) * 0.08
+    ctrl = rc.ResolvedRateController(arm, smoothing=True)
+    statuses = set()
+    for _ in range(int(3.0 / dt)):
+        cmd = ctrl.step(q, twist=xi, dt=dt)
+        q = cmd.q_next
+        assert np.min(np.minimum(q - arm.lower, arm.upper - q)) > 0.5  # no limit near
+        statuses.add(cmd.status)
+    assert "joint-limit" not in statuses, statuses
+    assert cmd.status == "halted-singularity" and np.max(np.abs(cmd.qd)) < 1e-9
