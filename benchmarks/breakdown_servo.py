@@ -1,0 +1,306 @@
+"""Where a servo step's time goes: the kinematics and dense linear algebra it calls, and the rest.
+
+The loop of ``bench_servo.py`` (UR5e, the QP solver, a target on a 5 cm circle at 0.2 m/s,
+dt = 1 ms, ``cmd = ctrl.step(q, target=T_t, dt); q = cmd.q_next``), run once while counting
+per step the calls of the primitives every step is built on:
+
+* ``Chain.fk_jacobian`` and ``Chain.jacobian`` (the generated kernel and its array);
+* the SVDs of the singularity watch (``thin_svd``: σ_min, the share of the direction in the
+  weakest singular direction; ``svd_values``: σ_min one small step and one joint step ahead);
+* the Cholesky solves and the symmetric eigenvalues of the direction and the feedback
+  (LAPACK ``dposv``, ``dpotrs``, ``dsyev`` through SciPy).
+
+Steps are split by whether the watch ran (σ_min below its threshold, 4 × ``stop_sigma``).
+Each primitive's cost per call is then timed alone on the loop's own Jacobians, and for
+each kind of step the table gives: the median time of the step (this thread's CPU time,
+gc enabled), the calls per step, their summed cost (the **floor** of a step that makes
+those calls through NumPy and SciPy), and the rest (Python between the calls, small NumPy
+arithmetic, the command). Beside it, half of mink + daqp's median step on the same targets
+(``bench_servo.py``'s peer) when mink is installed.
+
+Run:  python benchmarks/breakdown_servo.py [--steps N] [--update-docs]
+
+``--update-docs`` writes the table into docs/benchmarks.md between the
+``breakdown_servo.py --update-docs`` markers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+from _timing import machine, update_docs  # noqa: E402
+from bench_controller import DT, Q0, MinkLoop  # noqa: E402
+from bench_servo import circle_targets, mink_target_loop  # noqa: E402
+
+import ratectl as rc  # noqa: E402
+import ratectl.control.progress_stage as _stage  # noqa: E402
+import ratectl.solvers.base as _base  # noqa: E402
+import ratectl.solvers.qp.qp as _qp  # noqa: E402
+from ratectl.model.chain import Chain  # noqa: E402
+
+PRIMITIVES = ("fk_jacobian", "jacobian", "thin_svd", "svd_values", "dposv", "dpotrs", "dsyev")
+
+
+class Counter:
+    """Counts calls of the primitives while installed (module globals and Chain methods)."""
+
+    def __init__(self) -> None:
+        self.n = dict.fromkeys(PRIMITIVES, 0)
+        self._undo: list = []
+
+    def _wrap(self, owner, attr: str, key: str) -> None:
+        orig = getattr(owner, attr)
+        n = self.n
+
+        def counted(*a, **k):
+            n[key] += 1
+            return orig(*a, **k)
+
+        setattr(owner, attr, counted)
+        self._undo.append((owner, attr, orig))
+
+    def __enter__(self) -> Counter:
+        self._wrap(Chain, "fk_jacobian", "fk_jacobian")
+        self._wrap(Chain, "jacobian", "jacobian")
+        self._wrap(_stage, "thin_svd", "thin_svd")
+        self._wrap(_stage, "svd_values", "svd_values")
+        for mod in (_base, _qp):
+            self._wrap(mod, "_dposv", "dposv")
+            self._wrap(mod, "_dpotrs", "dpotrs")
+        self._wrap(_base, "_dsyev", "dsyev")
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for owner, attr, orig in reversed(self._undo):
+            setattr(owner, attr, orig)
+
+    def snapshot(self) -> dict[str, int]:
+        return dict(self.n)
+
+
+STAGES = ("gate: validate + check", "servo: fk_jacobian", "servo: direction + feedback solve",
+          "servo: the rest (segment, pose errors, progress bounds, watch, advance)", "limiter",
+          "integration (q_next, q̈)", "arrival status", "command (state, Command)")
+
+
+class StageTimer:
+    """Times the stages of a controller's cycle (this thread's CPU time per call, summed per
+    stage), by wrapping the controller's stage objects and methods in place: the gate, the
+    servo (its fk_jacobian and its solver call timed apart), the limiter, the integration
+    (``_smooth``), the arrival status and the command. What a reading of the clock itself
+    costs (``tick``, the median of two readings in a row) is taken off every timed call."""
+
+    def __init__(self, ctrl, clock) -> None:
+        self.t = dict.fromkeys(STAGES, 0.0)
+        t, clk = self.t, clock
+        tick = self.tick = statistics.median(-clk() + clk() for _ in range(2001))
+
+        def timed(f, key):
+            def call(*a, **k):
+                t0 = clk()
+                try:
+                    return f(*a, **k)
+                finally:
+                    t[key] += clk() - t0 - tick
+            return call
+
+        class Proxy:
+            def __init__(self, obj, methods):
+                self._obj, self._methods = obj, methods
+
+            def __getattr__(self, name):
+                attr = getattr(self._obj, name)
+                key = self._methods.get(name)
+                return attr if key is None else timed(attr, key)
+
+        gate = STAGES[0]
+        ctrl._gate = Proxy(ctrl._gate, {"validate": gate, "check": gate})
+        ctrl._limiter = Proxy(ctrl._limiter, {"limit": STAGES[4]})
+        ctrl._smooth = timed(ctrl._smooth, STAGES[5])
+        ctrl._command = timed(ctrl._command, STAGES[7])
+        servo = ctrl._servo
+        inner = {"fk": 0.0}
+        chain = ctrl.chain
+        fkj = chain.fk_jacobian
+        solve = ctrl._progress._direction_twist
+
+        def fk_jacobian(*a, **k):
+            t0 = clk()
+            try:
+                return fkj(*a, **k)
+            finally:
+                inner["fk"] += clk() - t0 - tick
+
+        def direction_twist(*a, **k):
+            t0 = clk()
+            try:
+                return solve(*a, **k)
+            finally:
+                t[STAGES[2]] += clk() - t0 - tick
+
+        chain.fk_jacobian = fk_jacobian  # (an instance attribute: this chain only)
+        ctrl._progress._direction_twist = direction_twist
+
+        def servo_step(*a, **k):
+            inner["fk"] = 0.0
+            d0 = t[STAGES[2]]
+            t0 = clk()
+            try:
+                return servo.step(*a, **k)
+            finally:
+                total = clk() - t0 - tick
+                t[STAGES[1]] += inner["fk"]
+                # (the two inner timers' own readings: two ticks each)
+                t[STAGES[3]] += total - inner["fk"] - (t[STAGES[2]] - d0) - 4.0 * tick
+
+        proxy = Proxy(servo, {"arrival": STAGES[6]})
+        proxy.step = servo_step
+        ctrl._servo = proxy
+
+    def snapshot(self) -> dict[str, float]:
+        return dict(self.t)
+
+
+def unit_costs(arm, qs: list[np.ndarray], clock) -> dict[str, float]:
+    """Median cost of one call of each primitive [µs], on the loop's own configurations."""
+    Js = [arm.jacobian(q) for q in qs]
+    P = [J.T @ J + 0.05 ** 2 * np.eye(J.shape[1]) for J in Js]
+    F = [_base._dpotrf(p)[0] for p in P]
+    b = [np.ones(J.shape[1]) for J in Js]
+    lap = _base._lapack
+    cases = {
+        "fk_jacobian": lambda i: arm.fk_jacobian(qs[i]),
+        "jacobian": lambda i: arm.jacobian(qs[i]),
+        "thin_svd": lambda i: _base.thin_svd(Js[i]),
+        "svd_values": lambda i: _base.svd_values(Js[i]),
+        "dposv": lambda i: lap.dposv(P[i], b[i]),
+        "dpotrs": lambda i: lap.dpotrs(F[i], b[i]),
+        "dsyev": lambda i: lap.dsyev(P[i], compute_v=0),
+    }
+    out = {}
+    m = len(qs)
+    for name, f in cases.items():
+        rounds = []
+        for _ in range(7):
+            t0 = clock()
+            for i in range(m):
+                f(i)
+            rounds.append((clock() - t0) / m)
+        out[name] = statistics.median(rounds) * 1e6
+    return out
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--steps", type=int, default=3000, help="steps of the loop (default 3000)")
+    ap.add_argument("--update-docs", action="store_true", help="write the table into docs/benchmarks.md")
+    args = ap.parse_args(argv)
+    clock = time.thread_time
+    arm = rc.robots.ur5e()
+    targets = circle_targets(arm, args.steps)
+    ctrl = rc.ResolvedRateController(arm, solver=rc.solvers.QP())
+    watch = ctrl._progress.bounds.watch_sigma
+
+    # the calls of each step (one counted run), then the times (runs without the counters)
+    per_step: list[dict[str, int]] = []
+    qs: list[np.ndarray] = []
+    with Counter() as c:
+        ctrl.reset()
+        q = Q0.copy()
+        for T in targets:
+            before = c.snapshot()
+            cmd = ctrl.step(q, target=T, dt=DT)
+            after = c.snapshot()
+            per_step.append({k: after[k] - before[k] for k in PRIMITIVES})
+            qs.append(q)
+            q = cmd.q_next
+    runs = []
+    for r in range(4):  # one warm-up run, then the median of three timed runs per step
+        ctrl.reset()
+        q = Q0.copy()
+        t = np.empty(len(targets))
+        for k, T in enumerate(targets):
+            t0 = clock()
+            cmd = ctrl.step(q, target=T, dt=DT)
+            t[k] = clock() - t0
+            q = cmd.q_next
+        if r > 0:
+            runs.append(t)
+    times = np.median(runs, axis=0) * 1e6
+    unit = unit_costs(arm, qs[:: max(1, len(qs) // 200)], clock)
+
+    # the stages, on a controller of its own (the wrappers stay on it)
+    staged = rc.ResolvedRateController(rc.robots.ur5e(), solver=rc.solvers.QP())
+    timer = StageTimer(staged, clock)
+    stage_runs = []
+    for r in range(4):  # one warm-up run, then the median of three runs per step and stage
+        staged.reset()
+        q = Q0.copy()
+        per = np.empty((len(targets), len(STAGES)))
+        for k, T in enumerate(targets):
+            before = timer.snapshot()
+            q = staged.step(q, target=T, dt=DT).q_next
+            after = timer.snapshot()
+            per[k] = [after[s] - before[s] for s in STAGES]
+        if r > 0:
+            stage_runs.append(per)
+    stage_times = np.median(stage_runs, axis=0) * 1e6
+
+    watched = np.array([s["thin_svd"] > 0 for s in per_step])
+    rows = []  # (name, share of the steps, p50, floor, calls per step)
+    for name, sel in (("every step", np.ones_like(watched)), ("the watch ran", watched),
+                      ("the watch was not needed", ~watched)):
+        if not sel.any():
+            continue
+        idx = np.flatnonzero(sel)
+        calls = {k: float(np.mean([per_step[i][k] for i in idx])) for k in PRIMITIVES}
+        floor = sum(calls[k] * unit[k] for k in PRIMITIVES)
+        rows.append((name, float(sel.mean()), float(np.median(times[idx])), floor, calls,
+                     np.mean(stage_times[idx], axis=0)))
+    half = None
+    try:
+        peer: MinkLoop | None = MinkLoop(arm)
+    except ImportError:
+        peer = None
+    if peer is not None:
+        mink_target_loop(peer, targets[:300], clock)
+        half = 0.5 * statistics.median(float(np.median(mink_target_loop(peer, targets, clock)[0]))
+                                       for _ in range(3))
+    text = markdown(rows, unit, half, watch, args.steps)
+    print(text)
+    if args.update_docs:
+        update_docs("breakdown_servo.py", text)
+
+
+def markdown(rows: list, unit: dict[str, float], half: float | None, watch: float, steps: int) -> str:
+    out = [f"Measured by `benchmarks/breakdown_servo.py` on {machine()}: UR5e, QP, {steps} steps of "
+           f"`bench_servo.py`'s moving target, dt = 1 ms; the watch runs below σ_min = {watch:.3g}.",
+           "",
+           "| steps | share | p50 [µs] | the calls [µs] | the rest [µs] | calls per step |",
+           "|---|---|---|---|---|---|"]
+    for name, share, p50, floor, calls, _ in rows:
+        shown = ", ".join(f"{k} {v:.2f}" for k, v in calls.items() if v > 0.005)
+        out.append(f"| {name} | {share:.0%} | {p50:.1f} | {floor:.1f} | {p50 - floor:.1f} | {shown} |")
+    out.append("")
+    out.append("| stage of the cycle, mean per step [µs] | " + " | ".join(r[0] for r in rows) + " |")
+    out.append("|---|" + "---|" * len(rows))
+    for i, stage in enumerate(STAGES):
+        out.append(f"| {stage} | " + " | ".join(f"{r[5][i]:.1f}" for r in rows) + " |")
+    out.append("| (sum of the stages: the step with the wrappers' calls) | "
+               + " | ".join(f"{float(np.sum(r[5])):.1f}" for r in rows) + " |")
+    out.append("")
+    out.append("One call [µs]: " + ", ".join(f"`{k}` {v:.2f}" for k, v in unit.items()) + ".")
+    if half is not None:
+        out.append(f"Half of mink + daqp's median step on the same targets (the cost goal): {half:.1f} µs.")
+    return "\n".join(out) + "\n"
+
+
+if __name__ == "__main__":
+    main()
