@@ -47,7 +47,9 @@ class Jog:
     commanded twist the tool moves at (see the module docstring). Owns c, ċ, the last
     commanded twist and a stop planned before a singularity."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, share: float = 1.0) -> None:
+        # the share η of amax and jmax the progress bounds give it (the filter meets the rest)
+        self.share = share
         self.reset()
 
     def reset(self) -> None:
@@ -61,6 +63,7 @@ class Jog:
         self._plan.L = math.inf
         self._block: float | None = None  # where the planned stop ends, in the plan's progress
         self._block_by = ""  # what blocks there: "singularity" or "position"
+        self._unwinding = False  # a planned stop ends on `_unwind`'s profile
 
     def start(self, twist: np.ndarray, *, signed: bool = False) -> None:
         """A new commanded twist: c continues from the previous motion projected on it.
@@ -73,6 +76,7 @@ class Jog:
         prev = self.twist
         if prev is not None and self.c != 0.0 and not _same(prev, twist):
             self._block = None  # (a stop planned along the previous twist)
+            self._unwinding = False
             nn = float(twist.dot(twist))  # (ndarray.dot: the same product as @, cheaper)
             ratio = float(prev.dot(twist)) / nn if nn > 0.0 else 0.0
             c = self.c * ratio
@@ -94,7 +98,7 @@ class Jog:
     def stopping(self) -> str:
         """What a stop under way is planned before (smoothed): ``"singularity"`` or
         ``"position"`` (a joint's limit); "" when none is."""
-        return self._block_by if self._block is not None else ""
+        return self._block_by if (self._block is not None or self._unwinding) else ""
 
     def stopping_progress(self, dt: float, accel: float | None = None, jerk: float | None = None) -> float:
         """The progress the jog needs to come to rest [twist·s]: one period at c, then the
@@ -129,6 +133,34 @@ class Jog:
             return caps.binding == "singularity" and caps.speed < 1.0
         return 2.0 * stopping_progress(self.c, self.cd, PLANNED_BRAKE * caps.accel, caps.jerk, dt) >= room
 
+    def _full_jerk(self, caps: ProgressCaps) -> float:
+        """The largest |c⃛| whose reference c·w the filter still meets on every joint: the
+        whole of jmax, where the progress bound ``caps.jerk`` is its share η of it."""
+        return caps.jerk / self.share if self.share > 0.0 else caps.jerk
+
+    def _unwind(self, caps: ProgressCaps, dt: float) -> float:
+        """One period of the end of a planned stop that can no longer end at rest at its own
+        jerk: c goes to rest on a jerk-limited profile (`SpeedProfile`) at the whole jmax along
+        w (`_full_jerk`), braking no harder than it does, and where even that cannot ramp the
+        braking out before rest, c dips below 0 and rises back to it: the tool ends its stop
+        with a small motion back along the twist, never with a jump of the reference's
+        acceleration, which the filter's joints would each ramp out on their own, off the
+        twist. Updates c and ċ; the stop (`stopping`) stays in force until c is at rest."""
+        prof = self._profile
+        if prof is None:
+            prof = self._profile = SpeedProfile(dt)
+        self._unwinding = True
+        self._block = None
+        nxt = prof.step(self.c, self.cd, 0.0, amax=max(abs(self.cd), caps.accel / self.share, 1e-9),
+                        jmax=max(self._full_jerk(caps), 1e-6), dt=dt)
+        c, cd = nxt if nxt is not None else (0.0, 0.0)
+        if abs(c) <= 1e-12 and abs(cd) <= 1e-9:
+            c, cd = 0.0, 0.0
+        if c == 0.0 and cd == 0.0:
+            self._unwinding = False
+        self.c, self.cd = c, cd
+        return c
+
     def advance_smoothly(self, caps: ProgressCaps, dt: float) -> float:
         """c for the coming period with smoothing: toward min(1, the speed bound) on a
         jerk-limited motion (`SpeedProfile`, within the acceleration and jerk bounds), so that
@@ -138,6 +170,8 @@ class Jog:
         if prof is None:
             prof = self._profile = SpeedProfile(dt)
         self._bounds = (caps.accel, caps.jerk)
+        if self._unwinding:
+            return self._unwind(caps, dt)
         plan = self._plan
         by = caps.room_by
         # a block ahead: a singularity's σ_min of the stop, or a joint's position limit less
@@ -163,6 +197,12 @@ class Jog:
             plan.sd, plan.sdd = self.c, self.cd
             plan.advance(replace(caps, free_speed=min(1.0, caps.free_speed), room=max(room, 0.0),
                                  room_by=by), dt)
+            if plan.sdd < 0.0 and plan.sdd * plan.sdd > 2.0 * self._full_jerk(caps) * max(plan.sd, 0.0):
+                # the plan reaches rest still braking harder than even the whole jmax ramps
+                # out (a block that came nearer, bounds that shrank on the way): cut to rest
+                # there, the filter's joints would each ramp their braking out on their own
+                # and carry the tool sideways; the stop ends on the line instead (`_unwind`)
+                return self._unwind(caps, dt)
             self.c, self.cd = (plan.sd, plan.sdd) if plan.sd > 0.0 else (0.0, 0.0)
             if self.c == 0.0:
                 self._block = None
@@ -202,7 +242,7 @@ class JogStage:
         self._adds_rows = adds_rows
         self._solve = solve
         self._halt = halt
-        self._jogger = Jog()
+        self._jogger = Jog(share=progress.bounds.accel_share)
         self._idle = True  # the jog is as `reset` leaves it (a servo cycle resets it only then)
         # with smoothing (jerk-limited progress bounds) c is jerk-limited and the command a
         # reference with its acceleration, which the filter meets without turning it
@@ -286,7 +326,7 @@ class JogStage:
                     caps.reason = caps.room_reason or "stopping before a joint's position limit"
             at_bound = True
         self._progress.flags(cyc, q, caps, c != 0.0, at_bound)
-        if c_prev < c < min(1.0, caps.speed) * (1.0 - 1e-12):
+        if c_prev < c < min(1.0, caps.speed) * (1.0 - 1e-12) and not stop_by:
             cyc.flags.append("acceleration-limited")
             cyc.reasons.append(f"accelerating along the commanded twist within amax ({c:.3g}× the twist)")
             cyc.active.append("acceleration")
