@@ -186,7 +186,10 @@ class Jog:
             planned = self._block - plan.s
             if planned <= room:
                 room, by = planned, self._block_by
-        if room < math.inf and (self._block is not None or self._stop_due(caps, by, room, dt)):
+        if room < math.inf and (self._block is not None or self._stop_due(caps, by, room, dt) or (
+                by == "singularity" and self._stop_due(caps, "position", caps.limit_room, dt))):
+            # (a singularity's block may hide a joint's limit just beyond it: a stop that the
+            # limit needs is due by the limit's rule, and planned before the nearer block)
             # the stop is planned there, as the approach plans its own (`Progress`, at the
             # block's bounds; late before a singularity, it runs on a little past it), and
             # kept until the jog rests (a speed bound that falls faster than a jerk-limited c

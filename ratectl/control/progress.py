@@ -105,6 +105,10 @@ class ProgressCaps:
             away from a singularity and would then lower σ_min again).
         room_margin: the progress of the margin a jog keeps inside a position limit
             (`_LIMIT_MARGIN` of the joint that blocks, in progress units; 0 for a singularity).
+        limit_room: the progress still free ahead of the nearest position limit less the
+            jog's margin inside it, whatever block is nearer (inf when no joint moves toward
+            a limit): a singularity's block may hide a limit just beyond it, whose stop is
+            due earlier.
     """
 
     speed: float
@@ -123,6 +127,7 @@ class ProgressCaps:
     room_jerk: float = math.inf
     room_peak: bool = False
     room_margin: float = 0.0
+    limit_room: float = math.inf
 
 
 @dataclass(slots=True)
@@ -322,6 +327,7 @@ class ProgressLimits:
                             free_speed=free_speed)
         if p_room < inf:
             caps.room, caps.room_by, caps.room_margin = p_room, "position", _LIMIT_MARGIN * p_inv
+            caps.limit_room = p_room - caps.room_margin
             caps.room_reason = self._limit_reason(wl, p_joint, at=p_room <= 0.0)
         if exact is not None and sigma is not None and sigma < self.watch_sigma:
             self._singularity(caps, q, w, exact, ahead)

@@ -321,3 +321,30 @@ def test_a_smoothed_stop_before_a_singularity_that_ends_still_braking_stays_on_t
     off, turn = run.uncommanded()
     assert off <= 2e-3 and math.degrees(turn) <= 0.5, (off, math.degrees(turn))
     assert "approaching-singularity" in statuses and cmd.status == "halted-singularity"
+
+
+@pytest.mark.parametrize("dt", [1e-3, 4e-3])
+def test_a_smoothed_jog_plans_its_stop_for_a_joint_limit_behind_a_nearer_singularity_block(dt):
+    """The built-in iiwa7, smoothed, the QP, a 0.15 m/s twist that stretches the arm toward
+    its boundary singularity while joint 1 runs toward its upper limit just beyond that block:
+    the stop a limit needs is due earlier than a singularity's (at half the room, not once a
+    braking speed binds), and the nearer singularity block hid the limit from that rule. The
+    stop began late, braked past its share, and the position guard braked joint 1 on its own:
+    the tool slid 12.4 mm across the twist and turned 1.8° (4 ms). Now it plans that stop in
+    time: within the jogging allowance, and it ends at rest inside the limit."""
+    arm = rc.robots.iiwa7()
+    q = np.array([2.548764587553665, 1.4052780105520966, 2.318118479818223, -1.3733245837062868,
+                  2.020616675727101, -1.2917588236488537, 1.3836334139325799])
+    xi = np.array([-0.13005983625173695, -0.02576764200158198, 0.06800715289929332, 0.0, 0.0, 0.0])
+    u = xi[:3] / np.linalg.norm(xi[:3])
+    ctrl = rc.ResolvedRateController(arm, smoothing=True, solver=rc.solvers.QP())
+    qs = [q]
+    for _ in range(int(round(2.0 / dt))):
+        cmd = ctrl.step(q, twist=xi, dt=dt)
+        q = cmd.q_next
+        qs.append(q)
+    T = arm.fk(np.array(qs))
+    run = Jog("iiwa7-limit-behind-boundary", arm, T[:, :3, 3], T[:, :3, :3], u, (), len(qs) - 1, "boundary")
+    off, turn = run.uncommanded()
+    assert off <= 2e-3 and math.degrees(turn) <= 0.5, (off, math.degrees(turn))
+    assert np.max(np.abs(cmd.qd)) < 1e-9 and np.all(q <= arm.upper) and np.all(q >= arm.lower)
