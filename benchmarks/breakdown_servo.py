@@ -18,10 +18,12 @@ those calls through NumPy and SciPy), and the rest (Python between the calls, sm
 arithmetic, the command). Beside it, half of mink + daqp's median step on the same targets
 (``bench_servo.py``'s peer) when mink is installed.
 
-Run:  python benchmarks/breakdown_servo.py [--steps N] [--update-docs]
+Run:  python benchmarks/breakdown_servo.py [--steps N] [--update-docs] [--figure PATH]
 
 ``--update-docs`` writes the table into docs/benchmarks.md between the
-``breakdown_servo.py --update-docs`` markers.
+``breakdown_servo.py --update-docs`` markers; ``--figure PATH`` draws each kind of step's
+median as its calls (kinematics, SVDs, Cholesky and eigenvalues) and the rest, beside the
+cost goal.
 """
 
 from __future__ import annotations
@@ -201,6 +203,7 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=3000, help="steps of the loop (default 3000)")
     ap.add_argument("--update-docs", action="store_true", help="write the table into docs/benchmarks.md")
+    ap.add_argument("--figure", help="draw the split of a step into this PNG file")
     args = ap.parse_args(argv)
     clock = time.thread_time
     arm = rc.robots.ur5e()
@@ -277,6 +280,42 @@ def main(argv=None) -> None:
     print(text)
     if args.update_docs:
         update_docs("breakdown_servo.py", text)
+    if args.figure:
+        figure(rows, unit, half, args.figure)
+
+
+def figure(rows: list, unit: dict[str, float], half: float | None, path: str) -> None:
+    """Horizontal bars, one per kind of step: its median split into the calls' cost, by kind
+    of call, and the rest; the cost goal as a line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = (("kinematics (fk_jacobian, jacobian)", ("fk_jacobian", "jacobian"), "#4c72b0"),
+              ("SVDs of the singularity watch", ("thin_svd", "svd_values"), "#dd8452"),
+              ("Cholesky solves, eigenvalues", ("dposv", "dpotrs", "dsyev"), "#55a868"),
+              ("the rest: Python and small NumPy arithmetic", (), "#b0b0b0"))
+    fig, ax = plt.subplots(figsize=(9.0, 2.8), dpi=100)
+    labels = [r[0] for r in rows]
+    for y, (_name, _share, p50, floor, calls, _stages) in enumerate(rows):
+        left = 0.0
+        for label, keys, color in groups:
+            width = sum(calls[k] * unit[k] for k in keys) if keys else p50 - floor
+            ax.barh(y, width, left=left, color=color, label=label if y == 0 else None)
+            left += width
+        ax.text(left + 0.8, y, f"{p50:.0f} µs", va="center", fontsize=9)
+    if half is not None:
+        ax.axvline(half, color="#c44e52", linestyle="--", linewidth=1.5,
+                   label=f"the goal: half of mink + daqp ({half:.0f} µs)")
+    ax.set_yticks(range(len(rows)), labels)
+    ax.invert_yaxis()
+    ax.set_xlabel("median time of a servo step [µs] (UR5e, QP, moving target, dt = 1 ms)")
+    ax.set_xlim(0.0, max(r[2] for r in rows) * 1.12)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, fontsize=8, frameon=False)
+    fig.tight_layout()
+    fig.savefig(path)
+    print(f"wrote {path}")
 
 
 def markdown(rows: list, unit: dict[str, float], half: float | None, watch: float, steps: int) -> str:
