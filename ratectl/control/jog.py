@@ -200,11 +200,15 @@ class Jog:
             plan.sd, plan.sdd = self.c, self.cd
             plan.advance(replace(caps, free_speed=min(1.0, caps.free_speed), room=max(room, 0.0),
                                  room_by=by), dt)
-            if plan.sdd < 0.0 and plan.sdd * plan.sdd > 2.0 * self._full_jerk(caps) * max(plan.sd, 0.0):
-                # the plan reaches rest still braking harder than even the whole jmax ramps
-                # out (a block that came nearer, bounds that shrank on the way): cut to rest
-                # there, the filter's joints would each ramp their braking out on their own
-                # and carry the tool sideways; the stop ends on the line instead (`_unwind`)
+            ending = plan.sdd < 0.0 and plan.sdd * plan.sdd > 2.0 * self._full_jerk(caps) * max(plan.sd, 0.0)
+            if ending and room > 0.0:
+                # the plan reaches rest before its block still braking harder than even the
+                # whole jmax ramps out (a block that came nearer, bounds that shrank on the
+                # way): cut to rest there, the filter's joints would each ramp their braking
+                # out on their own and carry the tool sideways; the stop ends on the line
+                # instead (`_unwind`). Past the block (a stop that came too late and ran on
+                # below the stop's σ_min, where |J⁺ξ| grows like 1/σ_min) a motion back along
+                # ξ asks the joints for more than the filter's bounds: there it is cut
                 return self._unwind(caps, dt)
             self.c, self.cd = (plan.sd, plan.sdd) if plan.sd > 0.0 else (0.0, 0.0)
             if self.c == 0.0:

@@ -348,3 +348,36 @@ def test_a_smoothed_jog_plans_its_stop_for_a_joint_limit_behind_a_nearer_singula
     off, turn = run.uncommanded()
     assert off <= 2e-3 and math.degrees(turn) <= 0.5, (off, math.degrees(turn))
     assert np.max(np.abs(cmd.qd)) < 1e-9 and np.all(q <= arm.upper) and np.all(q >= arm.lower)
+
+
+def test_a_smoothed_stop_that_ran_past_its_singularity_block_is_not_driven_back_along_the_lost_direction():
+    """example-robot-data's UR10 (amax 8, jmax 80 added), smoothed, the QP, 4 ms, a 0.15 m/s
+    twist into its boundary singularity that the look-ahead sees only from σ_min ≈ 0.1 at
+    full speed: the stop comes late and runs on to σ_min ≈ 0.02, past its block. There, a
+    motion back along the twist to end the stop at the whole jmax asks the joints for more
+    than the filter's bounds (|J⁺ξ| grows like 1/σ_min): the tool went 5.6 mm across the
+    twist. Past the block the stop is cut to rest, as before (1.6 mm)."""
+    import os
+
+    from . import servo_arms
+
+    root = servo_arms.robots_dir()
+    if root is None:
+        pytest.skip("example-robot-data is not installed")
+    arm = rc.Chain.from_urdf(os.path.join(root, servo_arms.URDF_FILES["ur10"][0]),
+                             tip="tool0").with_limits(amax=8.0, jmax=80.0)
+    q = np.array([2.5347830579194746, -1.8064855410967464, -0.6121271864187396, -1.9780937186235006,
+                  1.4157736311094213, -4.378941242063196])
+    xi = np.array([0.052221694942490675, -0.053660222900113644, 0.1271260611501704, 0.0, 0.0, 0.0])
+    u = xi[:3] / np.linalg.norm(xi[:3])
+    ctrl = rc.ResolvedRateController(arm, smoothing=True, solver=rc.solvers.QP())
+    qs = [q]
+    for _ in range(500):
+        cmd = ctrl.step(q, twist=xi, dt=4e-3)
+        q = cmd.q_next
+        qs.append(q)
+    T = arm.fk(np.array(qs))
+    run = Jog("ur10-late-stop", arm, T[:, :3, 3], T[:, :3, :3], u, (), len(qs) - 1, "boundary")
+    off, turn = run.uncommanded()
+    assert off <= 2e-3 and math.degrees(turn) <= 0.5, (off, math.degrees(turn))
+    assert cmd.status == "halted-singularity"
