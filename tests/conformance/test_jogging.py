@@ -291,6 +291,22 @@ def test_a_smoothed_jog_keeps_its_stop_before_a_singularity_with_a_joint_limit_f
     assert cmd.status == "halted-singularity" and np.max(np.abs(cmd.qd)) < 1e-9
 
 
+def _smoothed_qp_jog(name, arm, q, xi, dt, seconds, *, check=None):
+    """A smoothed QP jog along ``xi`` (a pure translation) for ``seconds``: (the `Jog` of its
+    tool path, its last command); ``check(arm, q, cmd, u)`` is called every cycle."""
+    u = xi[:3] / np.linalg.norm(xi[:3])
+    ctrl = rc.ResolvedRateController(arm, smoothing=True, solver=rc.solvers.QP())
+    qs, cmd = [q], None
+    for _ in range(int(round(seconds / dt))):
+        cmd = ctrl.step(q, twist=xi, dt=dt)
+        if check is not None:
+            check(arm, q, cmd, u)
+        q = cmd.q_next
+        qs.append(q)
+    T = arm.fk(np.array(qs))
+    return Jog(name, arm, T[:, :3, 3], T[:, :3, :3], u, (), len(qs) - 1, "boundary"), cmd
+
+
 @pytest.mark.parametrize("dt", [1e-3, 2e-3, 4e-3])
 def test_a_smoothed_stop_before_a_singularity_that_ends_still_braking_stays_on_the_twist(dt):
     """The built-in PUMA 560 (its own limits), smoothed, the QP, a 0.14 m/s twist into its
@@ -305,19 +321,15 @@ def test_a_smoothed_stop_before_a_singularity_that_ends_still_braking_stays_on_t
     q = np.array([-1.975416533871512, 1.5442872321370555, -0.8731810011017753, -0.11563858364151658,
                   -0.9268344384742346, 0.5563191829761509])
     xi = np.array([-0.019153878880145005, 0.051574200495809484, 0.12704490509104277, 0.0, 0.0, 0.0])
-    u = xi[:3] / np.linalg.norm(xi[:3])
-    ctrl = rc.ResolvedRateController(arm, smoothing=True, solver=rc.solvers.QP())
-    qs, statuses = [q], set()
-    for _ in range(int(round(2.0 / dt))):
-        cmd = ctrl.step(q, twist=xi, dt=dt)
+    statuses = set()
+
+    def along_the_twist(arm, q, cmd, u):
         v = (arm.jacobian(q) @ cmd.qd)[:3]
         side = np.linalg.norm(v - (v @ u) * u)
         assert side <= 0.02 * SPEED + 0.05 * np.linalg.norm(v), (cmd.status, cmd.reason, v)
-        q = cmd.q_next
-        qs.append(q)
         statuses.add(cmd.status)
-    T = arm.fk(np.array(qs))
-    run = Jog("puma560-boundary", arm, T[:, :3, 3], T[:, :3, :3], u, (), len(qs) - 1, "boundary")
+
+    run, cmd = _smoothed_qp_jog("puma560-boundary", arm, q, xi, dt, 2.0, check=along_the_twist)
     off, turn = run.uncommanded()
     assert off <= 2e-3 and math.degrees(turn) <= 0.5, (off, math.degrees(turn))
     assert "approaching-singularity" in statuses and cmd.status == "halted-singularity"
@@ -336,17 +348,10 @@ def test_a_smoothed_jog_plans_its_stop_for_a_joint_limit_behind_a_nearer_singula
     q = np.array([2.548764587553665, 1.4052780105520966, 2.318118479818223, -1.3733245837062868,
                   2.020616675727101, -1.2917588236488537, 1.3836334139325799])
     xi = np.array([-0.13005983625173695, -0.02576764200158198, 0.06800715289929332, 0.0, 0.0, 0.0])
-    u = xi[:3] / np.linalg.norm(xi[:3])
-    ctrl = rc.ResolvedRateController(arm, smoothing=True, solver=rc.solvers.QP())
-    qs = [q]
-    for _ in range(int(round(2.0 / dt))):
-        cmd = ctrl.step(q, twist=xi, dt=dt)
-        q = cmd.q_next
-        qs.append(q)
-    T = arm.fk(np.array(qs))
-    run = Jog("iiwa7-limit-behind-boundary", arm, T[:, :3, 3], T[:, :3, :3], u, (), len(qs) - 1, "boundary")
+    run, cmd = _smoothed_qp_jog("iiwa7-limit-behind-boundary", arm, q, xi, dt, 2.0)
     off, turn = run.uncommanded()
     assert off <= 2e-3 and math.degrees(turn) <= 0.5, (off, math.degrees(turn))
+    q = cmd.q_next
     assert np.max(np.abs(cmd.qd)) < 1e-9 and np.all(q <= arm.upper) and np.all(q >= arm.lower)
 
 
@@ -369,15 +374,7 @@ def test_a_smoothed_stop_that_ran_past_its_singularity_block_is_not_driven_back_
     q = np.array([2.5347830579194746, -1.8064855410967464, -0.6121271864187396, -1.9780937186235006,
                   1.4157736311094213, -4.378941242063196])
     xi = np.array([0.052221694942490675, -0.053660222900113644, 0.1271260611501704, 0.0, 0.0, 0.0])
-    u = xi[:3] / np.linalg.norm(xi[:3])
-    ctrl = rc.ResolvedRateController(arm, smoothing=True, solver=rc.solvers.QP())
-    qs = [q]
-    for _ in range(500):
-        cmd = ctrl.step(q, twist=xi, dt=4e-3)
-        q = cmd.q_next
-        qs.append(q)
-    T = arm.fk(np.array(qs))
-    run = Jog("ur10-late-stop", arm, T[:, :3, 3], T[:, :3, :3], u, (), len(qs) - 1, "boundary")
+    run, cmd = _smoothed_qp_jog("ur10-late-stop", arm, q, xi, 4e-3, 2.0)
     off, turn = run.uncommanded()
     assert off <= 2e-3 and math.degrees(turn) <= 0.5, (off, math.degrees(turn))
     assert cmd.status == "halted-singularity"
