@@ -104,13 +104,14 @@ class StageTimer:
         t, clk = self.t, clock
         tick = self.tick = statistics.median(-clk() + clk() for _ in range(2001))
 
-        def timed(f, key):
+        def timed(f, key, acc=t):
+            """``f`` timed, its calls' time summed into ``acc[key]``."""
             def call(*a, **k):
                 t0 = clk()
                 try:
                     return f(*a, **k)
                 finally:
-                    t[key] += clk() - t0 - tick
+                    acc[key] += clk() - t0 - tick
             return call
 
         class Proxy:
@@ -129,26 +130,9 @@ class StageTimer:
         ctrl._command = timed(ctrl._command, STAGES[7])
         servo = ctrl._servo
         inner = {"fk": 0.0}
-        chain = ctrl.chain
-        fkj = chain.fk_jacobian
-        solve = ctrl._progress._direction_twist
-
-        def fk_jacobian(*a, **k):
-            t0 = clk()
-            try:
-                return fkj(*a, **k)
-            finally:
-                inner["fk"] += clk() - t0 - tick
-
-        def direction_twist(*a, **k):
-            t0 = clk()
-            try:
-                return solve(*a, **k)
-            finally:
-                t[STAGES[2]] += clk() - t0 - tick
-
-        chain.fk_jacobian = fk_jacobian  # (an instance attribute: this chain only)
-        ctrl._progress._direction_twist = direction_twist
+        # (an instance attribute: this chain only)
+        ctrl.chain.fk_jacobian = timed(ctrl.chain.fk_jacobian, "fk", inner)
+        ctrl._progress._direction_twist = timed(ctrl._progress._direction_twist, STAGES[2])
 
         def servo_step(*a, **k):
             inner["fk"] = 0.0
@@ -199,6 +183,22 @@ def unit_costs(arm, qs: list[np.ndarray], clock) -> dict[str, float]:
     return out
 
 
+def median_of_runs(ctrl, targets, measure) -> np.ndarray:
+    """Per step, the median of what ``measure(k, T_k, q) -> (q_next, values)`` gives over
+    three runs of the loop from Q0 (after one warm-up run)."""
+    runs = []
+    for r in range(4):
+        ctrl.reset()
+        q = Q0.copy()
+        out = []
+        for k, T in enumerate(targets):
+            q, values = measure(k, T, q)
+            out.append(values)
+        if r > 0:
+            runs.append(np.array(out, dtype=float))
+    return np.median(runs, axis=0)
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=3000, help="steps of the loop (default 3000)")
@@ -224,37 +224,25 @@ def main(argv=None) -> None:
             per_step.append({k: after[k] - before[k] for k in PRIMITIVES})
             qs.append(q)
             q = cmd.q_next
-    runs = []
-    for r in range(4):  # one warm-up run, then the median of three timed runs per step
-        ctrl.reset()
-        q = Q0.copy()
-        t = np.empty(len(targets))
-        for k, T in enumerate(targets):
-            t0 = clock()
-            cmd = ctrl.step(q, target=T, dt=DT)
-            t[k] = clock() - t0
-            q = cmd.q_next
-        if r > 0:
-            runs.append(t)
-    times = np.median(runs, axis=0) * 1e6
+    def timed_step(k, T, q):
+        t0 = clock()
+        q_next = ctrl.step(q, target=T, dt=DT).q_next
+        return q_next, clock() - t0
+
+    times = median_of_runs(ctrl, targets, timed_step) * 1e6
     unit = unit_costs(arm, qs[:: max(1, len(qs) // 200)], clock)
 
     # the stages, on a controller of its own (the wrappers stay on it)
     staged = rc.ResolvedRateController(rc.robots.ur5e(), solver=rc.solvers.QP())
     timer = StageTimer(staged, clock)
-    stage_runs = []
-    for r in range(4):  # one warm-up run, then the median of three runs per step and stage
-        staged.reset()
-        q = Q0.copy()
-        per = np.empty((len(targets), len(STAGES)))
-        for k, T in enumerate(targets):
-            before = timer.snapshot()
-            q = staged.step(q, target=T, dt=DT).q_next
-            after = timer.snapshot()
-            per[k] = [after[s] - before[s] for s in STAGES]
-        if r > 0:
-            stage_runs.append(per)
-    stage_times = np.median(stage_runs, axis=0) * 1e6
+
+    def staged_step(k, T, q):
+        before = timer.snapshot()
+        q_next = staged.step(q, target=T, dt=DT).q_next
+        after = timer.snapshot()
+        return q_next, [after[s] - before[s] for s in STAGES]
+
+    stage_times = median_of_runs(staged, targets, staged_step) * 1e6
 
     watched = np.array([s["thin_svd"] > 0 for s in per_step])
     rows = []  # (name, share of the steps, p50, floor, calls per step)

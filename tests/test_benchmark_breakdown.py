@@ -23,13 +23,13 @@ from bench_controller import DT, Q0  # noqa: E402
 from bench_servo import circle_targets  # noqa: E402
 
 STEPS = 1500  # (the watch starts on bench_servo's circle after ~500 steps)
+WRAPPED = (("thin_svd", breakdown._stage, "thin_svd"), ("dposv", breakdown._qp, "_dposv"),
+           ("fk_jacobian", breakdown.Chain, "fk_jacobian"))  # (name, owner, attribute)
 
 
 def test_the_counter_sees_every_primitive_of_a_servo_step_and_puts_them_back():
     arm = rc.robots.ur5e()
-    originals = {name: getattr(obj, attr) for name, obj, attr in (
-        ("thin_svd", breakdown._stage, "thin_svd"), ("dposv", breakdown._qp, "_dposv"),
-        ("fk_jacobian", breakdown.Chain, "fk_jacobian"))}
+    originals = {name: getattr(obj, attr) for name, obj, attr in WRAPPED}
     ctrl = rc.ResolvedRateController(arm, solver=rc.solvers.QP())
     q = Q0.copy()
     with breakdown.Counter() as c:
@@ -39,8 +39,7 @@ def test_the_counter_sees_every_primitive_of_a_servo_step_and_puts_them_back():
     assert n["fk_jacobian"] == STEPS
     assert n["dposv"] >= STEPS  # the direction and the feedback, each a Cholesky solve
     assert n["thin_svd"] > 0 and n["svd_values"] >= n["thin_svd"] and n["jacobian"] > 0  # the watch ran
-    for name, obj, attr in (("thin_svd", breakdown._stage, "thin_svd"), ("dposv", breakdown._qp, "_dposv"),
-                            ("fk_jacobian", breakdown.Chain, "fk_jacobian")):
+    for name, obj, attr in WRAPPED:
         assert getattr(obj, attr) is originals[name]
 
 

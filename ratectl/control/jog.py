@@ -138,17 +138,15 @@ class Jog:
         whole of jmax, where the progress bound ``caps.jerk`` is its share η of it."""
         return caps.jerk / self.share if self.share > 0.0 else caps.jerk
 
-    def _unwind(self, caps: ProgressCaps, dt: float) -> float:
+    def _unwind(self, prof: SpeedProfile, caps: ProgressCaps, dt: float) -> float:
         """One period of the end of a planned stop that can no longer end at rest at its own
         jerk: c goes to rest on a jerk-limited profile (`SpeedProfile`) at the whole jmax along
         w (`_full_jerk`), braking no harder than it does, and where even that cannot ramp the
         braking out before rest, c dips below 0 and rises back to it: the tool ends its stop
         with a small motion back along the twist, never with a jump of the reference's
         acceleration, which the filter's joints would each ramp out on their own, off the
-        twist. Updates c and ċ; the stop (`stopping`) stays in force until c is at rest."""
-        prof = self._profile
-        if prof is None:
-            prof = self._profile = SpeedProfile(dt)
+        twist. Updates c and ċ; the stop (`stopping`) stays in force until c is at rest.
+        ``prof``: the jog's `SpeedProfile`."""
         self._unwinding = True
         self._block = None
         nxt = prof.step(self.c, self.cd, 0.0, amax=max(abs(self.cd), caps.accel / self.share, 1e-9),
@@ -171,7 +169,7 @@ class Jog:
             prof = self._profile = SpeedProfile(dt)
         self._bounds = (caps.accel, caps.jerk)
         if self._unwinding:
-            return self._unwind(caps, dt)
+            return self._unwind(prof, caps, dt)
         plan = self._plan
         by = caps.room_by
         # a block ahead: a singularity's σ_min of the stop, or a joint's position limit less
@@ -209,7 +207,7 @@ class Jog:
                 # instead (`_unwind`). Past the block (a stop that came too late and ran on
                 # below the stop's σ_min, where |J⁺ξ| grows like 1/σ_min) a motion back along
                 # ξ asks the joints for more than the filter's bounds: there it is cut
-                return self._unwind(caps, dt)
+                return self._unwind(prof, caps, dt)
             self.c, self.cd = (plan.sd, plan.sdd) if plan.sd > 0.0 else (0.0, 0.0)
             if self.c == 0.0:
                 self._block = None
